@@ -1,0 +1,288 @@
+"""The `pico-gym` command line.
+
+Sub-commands:
+    maps        list the shipped maps, or draw one to a PNG
+    rollout     play one episode of PicoEscape-v0, write a GIF/PNG of it and print what happened
+    bench-env   measure env steps/s, LRF scans/s and vector-env throughput on this machine
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import statistics
+import sys
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from pico_gym.world.map import MapError
+
+
+def _make_env(args: argparse.Namespace, **kwargs: object):
+    import gymnasium as gym
+
+    import pico_gym  # noqa: F401  (registers the ids)
+
+    if getattr(args, "map", None):
+        kwargs["map"] = args.map
+    if getattr(args, "map_path", None):
+        kwargs["map_path"] = args.map_path
+    return gym.make("PicoEscape-v0", **kwargs)
+
+
+# --- maps -----------------------------------------------------------------------------------
+
+
+def cmd_maps(args: argparse.Namespace) -> int:
+    from pico_gym.world.catalog import load_shipped, shipped_maps
+
+    if args.name is None:
+        print(f"{'name':<24} {'size (m)':<13} {'segments':>8}  {'finish':<6}  file")
+        for name, path in shipped_maps().items():
+            world = load_shipped(name)
+            x0, y0, x1, y1 = world.bounds
+            finish = "yes" if world.finish is not None else "-"
+            print(f"{name:<24} {x1 - x0:5.1f} x {y1 - y0:<5.1f} {len(world.solid_segments()):>8}  {finish:<6}  {path.name}")
+        return 0
+    world = load_shipped(args.name)
+    out = args.png or f"{args.name}.png"
+    from pico_gym.render import render_map_png
+
+    render_map_png(world, out)
+    print(f"wrote {out}")
+    return 0
+
+
+# --- rollout --------------------------------------------------------------------------------
+
+
+def cmd_rollout(args: argparse.Namespace) -> int:
+    from PIL import Image
+
+    from pico_gym.demo import follow_the_gap
+
+    want_frames = args.gif is not None or args.png is not None
+    env = _make_env(args, render_mode="rgb_array" if want_frames else None)
+    obs, info = env.reset(seed=args.seed)
+    angles = env.unwrapped.lrf.beam_angles
+    if args.policy == "random":
+        env.action_space.seed(args.seed)
+        policy: Callable[[dict[str, np.ndarray]], np.ndarray] = lambda o: env.action_space.sample()  # noqa: E731
+    else:
+        policy = lambda o: follow_the_gap(o, angles)  # noqa: E731
+    frames = [env.render()] if want_frames else []
+    reward_sum = 0.0
+    terminated = truncated = False
+    while not (terminated or truncated):
+        obs, reward, terminated, truncated, info = env.step(policy(obs))
+        reward_sum += reward
+        if args.gif is not None and len(frames) < args.max_frames:
+            frames.append(env.render())
+    if want_frames:
+        last = env.render()
+    env.close()
+    if args.gif is not None:
+        images = [Image.fromarray(f).resize((f.shape[1] // 2, f.shape[0] // 2)) for f in frames + [last]]
+        duration_ms = int(1000 / env.metadata["render_fps"])
+        images[0].save(args.gif, save_all=True, append_images=images[1:], duration=duration_ms, loop=0)
+        print(f"wrote {args.gif} ({len(images)} frames)")
+    if args.png is not None:
+        Image.fromarray(last).save(args.png)
+        print(f"wrote {args.png}")
+    world = env.unwrapped.episode.map
+    print(f"map: {world.name}   seed: {args.seed}   policy: {args.policy}")
+    print(f"outcome: {info['termination_reason']}   success: {info['is_success']}")
+    print(f"time: {info['sim_time']:.1f} s   bumps: {info['bumps']}   path: {info['path_length']:.2f} m   "
+          f"shortest path: {info['shortest_path_length']:.2f} m   min clearance: {info['min_clearance']:.3f} m")
+    err = info["odom_error"]
+    print(f"return: {reward_sum:.2f}   odometry error at the end: {np.hypot(err[0], err[1]):.3f} m, {np.degrees(err[2]):.2f} deg")
+    return 0
+
+
+# --- bench-env ------------------------------------------------------------------------------
+
+
+def _machine() -> str:
+    model = platform.processor() or platform.machine()
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                model = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    return f"{model}, {os.cpu_count()} logical cores, {platform.system()} {platform.release()}"
+
+
+def _versions() -> str:
+    import gymnasium
+    import numba
+    import pymunk
+
+    import pico_gym
+
+    return (f"pico-gym {pico_gym.__version__}, Python {platform.python_version()}, numpy {np.__version__}, "
+            f"gymnasium {gymnasium.__version__}, pymunk {pymunk.version}, numba {numba.__version__}")
+
+
+def _median_rate(fn: Callable[[], int], repeats: int) -> tuple[float, list[float]]:
+    rates = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        count = fn()
+        rates.append(count / (time.perf_counter() - t0))
+    return statistics.median(rates), rates
+
+
+def _env_rate(steps: int, seed: int, **kwargs: object) -> Callable[[], int]:
+    import gymnasium as gym
+
+    env = gym.make("PicoEscape-v0", **kwargs)
+    env.reset(seed=seed)
+    env.action_space.seed(seed)
+    actions = [env.action_space.sample() for _ in range(steps)]
+    for a in actions[:200]:  # warm-up (JIT caches, allocations)
+        if any(env.step(a)[2:4]):
+            env.reset()
+
+    def run() -> int:
+        resets = 0
+        for a in actions:
+            _, _, terminated, truncated, _ = env.step(a)
+            if terminated or truncated:
+                env.reset()
+                resets += 1
+        run.resets = resets  # type: ignore[attr-defined]
+        return steps
+
+    return run
+
+
+def clutter_scene(n_segments: int, seed: int = 0) -> np.ndarray:
+    """A 10 x 10 m room holding (n_segments - 4) / 4 random boxes: an LRF benchmark scene."""
+    rng = np.random.default_rng(seed)
+    segs = [[-5, -5, 5, -5], [5, -5, 5, 5], [5, 5, -5, 5], [-5, 5, -5, -5]]
+    while len(segs) + 4 <= n_segments:
+        cx, cy = rng.uniform(-4.5, 4.5, size=2)
+        if abs(cx) < 0.6 and abs(cy) < 0.6:
+            continue  # keep the sensor's own spot free
+        h = rng.uniform(0.1, 0.3)
+        box = [(cx - h, cy - h), (cx + h, cy - h), (cx + h, cy + h), (cx - h, cy + h)]
+        segs += [[*box[i], *box[(i + 1) % 4]] for i in range(4)]
+    return np.array(segs[:n_segments], dtype=np.float64)
+
+
+def cmd_bench_env(args: argparse.Namespace) -> int:
+    import gymnasium as gym
+
+    import pico_gym  # noqa: F401
+    from pico_gym.sensors.lrf import Lrf, LrfConfig
+    from pico_gym.types import Pose
+
+    print(f"machine : {_machine()}")
+    print(f"versions: {_versions()}")
+    print(f"method  : median of {args.repeats} runs; random actions, one process, a generated room per episode\n")
+
+    rows = [
+        ("PicoEscape-v0, 1000 beams, defaults (collision=terminate)", {}),
+        ("PicoEscape-v0, 1000 beams, collision=continue", {"collision": "continue"}),
+        ("PicoEscape-v0, 64 beams, collision=continue", {"collision": "continue", "n_beams": 64}),
+    ]
+    for label, kwargs in rows:
+        run = _env_rate(args.steps, args.seed, **kwargs)
+        median, rates = _median_rate(run, args.repeats)
+        print(f"{label:<60} {median:9,.0f} steps/s   (runs: {', '.join(f'{r:,.0f}' for r in rates)}; "
+              f"{run.resets} episode ends per {args.steps:,} steps)")
+
+    env = gym.make("PicoEscape-v0")
+    env.reset(seed=args.seed)
+
+    def resets() -> int:
+        for _ in range(50):
+            env.reset()
+        return 50
+
+    median, _ = _median_rate(resets, args.repeats)
+    print(f"{'PicoEscape-v0 reset (new room, geodesic field, space)':<60} {median:9,.0f} resets/s")
+
+    lrf = Lrf(LrfConfig())
+    pose = Pose(0.1, 0.05, 0.3)
+    print()
+    for n in (20, 100, 400):
+        scene = clutter_scene(n, args.seed)
+        lrf.exact(pose, scene)
+
+        def scans(scene: np.ndarray = scene) -> int:
+            for _ in range(2000):
+                lrf.exact(pose, scene)
+            return 2000
+
+        median, _ = _median_rate(scans, args.repeats)
+        print(f"LRF, 1000 beams, {n:>3} segments (10 x 10 m room with boxes) {median:12,.0f} scans/s")
+
+    print()
+    for mode in ("sync", "async"):
+        venv = gym.make_vec("PicoEscape-v0", num_envs=2, vectorization_mode=mode)
+        venv.reset(seed=args.seed)
+        venv.action_space.seed(args.seed)
+        batch = [venv.action_space.sample() for _ in range(args.steps // 4)]
+        for a in batch[:100]:
+            venv.step(a)
+
+        def vec_run() -> int:
+            for a in batch:
+                venv.step(a)
+            return 2 * len(batch)
+
+        median, _ = _median_rate(vec_run, args.repeats)
+        venv.close()
+        print(f"gymnasium.make_vec, 2 envs, {mode:<5} {median:28,.0f} env steps/s (total over both envs)")
+    return 0
+
+
+# --- entry point ----------------------------------------------------------------------------
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="pico-gym", description="PICO challenges as Gymnasium environments.")
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    p = sub.add_parser("maps", help="list the shipped maps, or draw one to a PNG")
+    p.add_argument("name", nargs="?", help="a map to draw")
+    p.add_argument("--png", help="output file (default: NAME.png)")
+    p.set_defaults(func=cmd_maps)
+
+    p = sub.add_parser("rollout", help="play one episode, write a picture or GIF and print what happened")
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--map", help="a shipped map's name (default: a generated room)")
+    where.add_argument("--map-path", help="a map file (JSON or heightmap image)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--policy", choices=("gap", "random"), default="gap", help="follow-the-gap demo or random actions")
+    p.add_argument("--gif", help="write the episode as a GIF")
+    p.add_argument("--png", help="write the last frame as a PNG")
+    p.add_argument("--max-frames", type=int, default=600, help="cap on GIF frames")
+    p.set_defaults(func=cmd_rollout)
+
+    p = sub.add_parser("bench-env", help="measure env and LRF throughput on this machine")
+    p.add_argument("--steps", type=int, default=20000, help="env steps per run")
+    p.add_argument("--repeats", type=int, default=5, help="runs per figure (the median is printed)")
+    p.add_argument("--seed", type=int, default=0)
+    p.set_defaults(func=cmd_bench_env)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except (MapError, ValueError) as error:
+        print(f"pico-gym: error: {error}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

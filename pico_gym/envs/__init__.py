@@ -1,0 +1,5 @@
+"""Gymnasium environments."""
+
+from pico_gym.envs.escape_env import PicoEscapeEnv
+
+__all__ = ["PicoEscapeEnv"]

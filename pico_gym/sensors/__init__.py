@@ -1,0 +1,1 @@
+"""Sensors: the laser range finder and wheel odometry."""

@@ -1,0 +1,1 @@
+"""Tasks: where the robot starts, what counts as success, which reward terms apply."""

@@ -1,0 +1,234 @@
+"""The escape-room task: where PICO starts, when it has escaped, and what each step is worth.
+
+Competition rules (pico-facts.md): finished = the whole robot across the finish line without
+bumping; a trial ends on a bump, or after 30 s without sensible movement; 5 minutes in total.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Literal, NamedTuple
+
+import numba
+import numpy as np
+
+from pico_gym.robot import RobotConfig
+from pico_gym.types import FloatArray, Pose
+from pico_gym.world import geometry
+from pico_gym.world.escape_room import EscapeRoom, EscapeRoomConfig, generate_escape_room, sample_start_pose
+from pico_gym.world.grid import GeodesicField, Grid, geodesic_field
+from pico_gym.world.map import Map
+
+# Competition rules: 30 s without sensible movement ends a trial; 5 minutes per team.
+IDLE_TIME_S = 30.0
+TIME_LIMIT_S = 300.0
+
+TERMINATION_REASONS = ("escaped", "bump", "idle", "timeout")
+
+
+@dataclass(frozen=True)
+class RewardWeights:
+    """Weights of the named reward terms; reward = sum of weight * term.
+
+    Attributes:
+        progress: per metre of decrease of the geodesic distance to the finish line.
+        success: once, on escaping.
+        bump: per bump (the term is minus the number of new bumps).
+        time: per second of simulated time (the term is minus the step's duration).
+    """
+
+    progress: float = 1.0
+    success: float = 10.0
+    bump: float = 10.0
+    time: float = 0.1
+
+
+@dataclass(frozen=True)
+class EscapeTaskConfig:
+    """Rules of the escape task.
+
+    Attributes:
+        collision: "terminate" ends the episode at the first bump (the competition's rule);
+            "continue" keeps going and counts bumps.
+        idle_time_s: the episode ends after this long without sensible movement [s].
+        idle_speed_mps: true translational speed below which the robot is standing still [m/s].
+        idle_turn_rate_radps: true turn rate below which the robot is not turning [rad/s].
+        time_limit_s: the episode is truncated at this simulated time [s].
+        start_clearance_m: minimum distance between the start footprint and any wall [m].
+        rewards: weights of the reward terms.
+        room: ranges of the escape-room generator.
+        geodesic_resolution_m: cell size of the geodesic distance field [m].
+    """
+
+    collision: Literal["terminate", "continue"] = "terminate"
+    idle_time_s: float = IDLE_TIME_S
+    idle_speed_mps: float = 0.02
+    idle_turn_rate_radps: float = 0.05
+    time_limit_s: float = TIME_LIMIT_S
+    start_clearance_m: float = 0.05
+    rewards: RewardWeights = field(default_factory=RewardWeights)
+    room: EscapeRoomConfig = field(default_factory=EscapeRoomConfig)
+    geodesic_resolution_m: float = 0.05
+
+    def __post_init__(self) -> None:
+        if self.collision not in ("terminate", "continue"):
+            raise ValueError(f"collision must be 'terminate' or 'continue', got {self.collision!r}")
+        if self.time_limit_s <= 0 or self.idle_time_s <= 0:
+            raise ValueError("time_limit_s and idle_time_s must be positive")
+
+
+@numba.njit(cache=True)
+def _min_signed_distance(x: float, y: float, theta: float, outline: FloatArray, px: float, py: float, nx: float, ny: float) -> float:
+    """Smallest signed distance of the footprint's vertices past a line (point p, unit normal n)."""
+    c, s = math.cos(theta), math.sin(theta)
+    best = math.inf
+    for i in range(outline.shape[0]):
+        vx = x + c * outline[i, 0] - s * outline[i, 1]
+        vy = y + s * outline[i, 0] + c * outline[i, 1]
+        d = (vx - px) * nx + (vy - py) * ny
+        if d < best:
+            best = d
+    return best
+
+
+def _start_side(world: Map) -> FloatArray:
+    """A point on the side of the finish line the robot starts on.
+
+    The start pose, else the centre of the start areas, else the mean of the wall points (for an
+    escape room, inside the room: the corridor is only one wall's worth of points).
+    """
+    if world.start_pose is not None:
+        return np.array(world.start_pose[:2])
+    if world.start_area:
+        return np.mean([world.polygon(a).mean(axis=0) for a in world.start_area], axis=0)
+    return world.points[np.unique(world.walls)].mean(axis=0)
+
+
+class StepOutcome(NamedTuple):
+    """The task's verdict on a step."""
+
+    reward_terms: dict[str, float]
+    termination_reason: str | None
+    is_success: bool
+
+
+@dataclass(frozen=True)
+class Episode:
+    """What the task fixes at reset: the world, the start and the privileged progress field."""
+
+    map: Map
+    start: Pose
+    field: GeodesicField
+    shortest_path_length_m: float
+    room: EscapeRoom | None = None
+
+
+class EscapeTask:
+    """Spawning, success, reward terms and termination for the escape room."""
+
+    def __init__(self, config: EscapeTaskConfig, robot: RobotConfig, fixed_map: Map | None = None) -> None:
+        if fixed_map is not None and fixed_map.finish is None:
+            where = fixed_map.source or fixed_map.name
+            raise ValueError(f"{where}: an escape map needs a 'finish' line")
+        self.config = config
+        self.robot = robot
+        self.fixed_map = fixed_map
+        self._field_cache: tuple[Map, GeodesicField] | None = None
+        self._finish_point = np.zeros(2)
+        self._finish_normal = np.zeros(2)
+
+    # --- reset -------------------------------------------------------------------------
+    def new_episode(self, rng: np.random.Generator, start: Pose | None = None) -> Episode:
+        """Draw (or take) the world and the start pose, and prepare the progress field."""
+        room = None
+        if self.fixed_map is None:
+            room = generate_escape_room(rng, self.config.room, self.robot)
+            world = room.map
+            self._set_finish(world, room.route[0])
+            if start is None:
+                start = sample_start_pose(room, rng, self.robot, self.config.start_clearance_m)
+        else:
+            world = self.fixed_map
+            self._set_finish(world, _start_side(world))
+            if start is None:
+                start = world.start_pose if world.start_pose is not None else self._sample_fixed_start(world, rng)
+        field = self._field(world)
+        # The oracle path: the origin's geodesic to the line, plus the footprint's rear half so
+        # the whole robot is across.
+        rear = float(-self.robot.outline[:, 0].min())
+        shortest = field.lookup(start.x, start.y) + rear
+        return Episode(world, start, field, shortest, room)
+
+    def _field(self, world: Map) -> GeodesicField:
+        if self._field_cache is not None and self._field_cache[0] is world:
+            return self._field_cache[1]
+        grid = Grid.covering(world.bounds, self.config.geodesic_resolution_m, margin=1.0)
+        side = self._finish_point - self._finish_normal
+        field = geodesic_field(grid, world.solid_segments(), world.finish, (float(side[0]), float(side[1])))
+        if world is self.fixed_map:
+            self._field_cache = (world, field)
+        return field
+
+    def _set_finish(self, world: Map, start_side: FloatArray) -> None:
+        a, b = world.finish
+        d = (b - a) / np.linalg.norm(b - a)
+        normal = np.array([-d[1], d[0]])
+        if (np.asarray(start_side) - a) @ normal > 0:
+            normal = -normal  # point away from the start side
+        self._finish_point = a
+        self._finish_normal = normal
+
+    def _sample_fixed_start(self, world: Map, rng: np.random.Generator) -> Pose:
+        """A start pose on a fixed map without start_pose: in its start area, else anywhere free."""
+        segments = world.solid_segments()
+        areas = [world.polygon(a) for a in world.start_area]
+        if areas:
+            region = areas[int(rng.integers(len(areas)))]
+        else:
+            x0, y0, x1, y1 = world.bounds
+            region = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
+        lo, hi = region.min(axis=0), region.max(axis=0)
+        for _ in range(10000):
+            x, y = rng.uniform(lo, hi)
+            pose = Pose(float(x), float(y), float(rng.uniform(-math.pi, math.pi)))
+            if not geometry.point_in_polygon(pose.x, pose.y, region):
+                continue
+            footprint = geometry.transform_points(pose, self.robot.outline)
+            if geometry.polygon_clearance(footprint, segments) < self.config.start_clearance_m:
+                continue
+            if self.past_finish(pose) < 0 and math.isfinite(self._field(world).lookup(pose.x, pose.y)):
+                return pose
+        where = world.source or world.name
+        raise ValueError(f"{where}: found no free start pose with a path to the finish line")
+
+    # --- step --------------------------------------------------------------------------
+    def past_finish(self, pose: Pose) -> float:
+        """How far the whole footprint is past the finish line (negative: not yet across)."""
+        p, n = self._finish_point, self._finish_normal
+        return _min_signed_distance(pose.x, pose.y, pose.theta, self.robot.outline, p[0], p[1], n[0], n[1])
+
+    def evaluate(self, pose: Pose, progress_m: float, new_bumps: int, bumps: int, idle_s: float, dt_s: float) -> StepOutcome:
+        """Judge one step: its reward terms, and why the episode ends now (or None)."""
+        escaped = self.past_finish(pose) > 0.0
+        return StepOutcome(self.reward_terms(progress_m, escaped, new_bumps, dt_s), self.termination(escaped, bumps, idle_s), escaped)
+
+    def reward_terms(self, progress_m: float, escaped: bool, new_bumps: int, dt_s: float) -> dict[str, float]:
+        """The weighted reward terms of one step."""
+        w = self.config.rewards
+        return {
+            "progress": w.progress * progress_m,
+            "success": w.success * float(escaped),
+            "bump": -w.bump * new_bumps,
+            "time": -w.time * dt_s,
+        }
+
+    def termination(self, escaped: bool, bumps: int, idle_s: float) -> str | None:
+        """Why the episode ends now (one of TERMINATION_REASONS but timeout), or None."""
+        if escaped:
+            return "escaped"
+        if bumps > 0 and self.config.collision == "terminate":
+            return "bump"
+        if idle_s >= self.config.idle_time_s:
+            return "idle"
+        return None

@@ -1,0 +1,170 @@
+"""Course heightmap images to wall segments.
+
+A heightmap is a grey image at 0.025 m per pixel in which a pixel's value is its height, as in the
+course simulator (emc_simulator, src/heightmap.cpp): 255 is free floor, any lower value is an
+obstacle (255 - v) / 255 m tall, so a pixel of value 0 is a 1 m block. Pixels lower than the
+laser plane (0.3 m) are solid but invisible to the LRF. 4-connected blobs of grey 51..204 are
+doors. Pixel edges between obstacle and floor are merged into long axis-aligned segments.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from pico_gym.types import Segments
+
+# Course simulator facts (emc_simulator heightmap.cpp): 0.025 m per pixel, blocks 1 m tall for
+# value 0, door blobs are grey strictly between 50 and 205.
+COURSE_RESOLUTION_M = 0.025
+BLOCK_HEIGHT_M = 1.0
+DOOR_GREY_MIN = 51
+DOOR_GREY_MAX = 204
+# pico-facts.md: the LRF is mounted 0.3 m above the floor; lower objects are not seen.
+LASER_PLANE_HEIGHT_M = 0.3
+
+
+class ImageError(ValueError):
+    """The file could not be read as an image."""
+
+
+@dataclass(frozen=True)
+class HeightmapGeometry:
+    """What a heightmap contributes to a map, in the map frame.
+
+    Attributes:
+        visible: segments of obstacles at least as tall as the laser plane (seen and solid).
+        low: segments of obstacles below the laser plane (solid, not seen by the LRF).
+        doors: one segment array per door blob (its outline).
+    """
+
+    visible: Segments
+    low: Segments
+    doors: tuple[Segments, ...]
+
+
+def read_grey(path: Path) -> np.ndarray:
+    """Read an image file as a uint8 grey array; transparent pixels count as free (white)."""
+    from PIL import Image, UnidentifiedImageError
+
+    try:
+        with Image.open(path) as image:
+            image.load()
+            if image.mode in ("RGBA", "LA", "PA") or (image.mode == "P" and "transparency" in image.info):
+                rgba = image.convert("RGBA")
+                white = Image.new("RGBA", rgba.size, (255, 255, 255, 255))
+                image = Image.alpha_composite(white, rgba)
+            grey = np.asarray(image.convert("L"), dtype=np.uint8)
+    except (UnidentifiedImageError, OSError, SyntaxError) as error:
+        raise ImageError(f"not a readable image ({error})") from error
+    return grey
+
+
+def _edge_runs(solid: np.ndarray) -> np.ndarray:
+    """Horizontal boundary runs of a boolean image, in pixel-corner coordinates.
+
+    Returns rows (c0, r, c1, r, side): a boundary on the grid line above pixel row r from corner
+    column c0 to c1, with side +1 when the solid pixel is above the line and -1 when it is below.
+    """
+    h, w = solid.shape
+    padded = np.zeros((h + 2, w + 2), dtype=np.int8)
+    padded[1:-1, 1:-1] = solid
+    # code > 0: solid above the line (row r-1), < 0: solid below (row r); for lines r = 0..h.
+    code = padded[:-1, 1:-1] - padded[1:, 1:-1]
+    code = np.pad(code, ((0, 0), (1, 1)))
+    change = code[:, 1:] != code[:, :-1]
+    rows, cols = np.nonzero(change)
+    # Each change marks where a run ends and/or the next begins; split them per line.
+    values = code[rows, cols + 1]
+    prev_values = code[rows, cols]
+    starts = values != 0
+    ends = prev_values != 0
+    start_r, start_c, start_v = rows[starts], cols[starts], values[starts]
+    end_r, end_c = rows[ends], cols[ends]
+    order_s = np.lexsort((start_c, start_r))
+    order_e = np.lexsort((end_c, end_r))
+    start_r, start_c, start_v = start_r[order_s], start_c[order_s], start_v[order_s]
+    end_c = end_c[order_e]
+    runs = np.column_stack([start_c, start_r, end_c, start_r, np.sign(start_v)])
+    return runs.astype(np.float64)
+
+
+def _boundary_segments(solid: np.ndarray) -> np.ndarray:
+    """All boundary segments of a boolean image in pixel-corner coordinates (col, row)."""
+    if not solid.any():
+        return np.zeros((0, 4))
+    horizontal = _edge_runs(solid)[:, :4]
+    vertical = _edge_runs(solid.T)[:, :4]
+    vertical = vertical[:, [1, 0, 3, 2]]  # transpose back: (row, col) -> (col, row)
+    return np.vstack([horizontal, vertical])
+
+
+def _door_blobs(grey: np.ndarray) -> list[np.ndarray]:
+    """Boolean masks of the 4-connected blobs of door grey."""
+    door = (grey >= DOOR_GREY_MIN) & (grey <= DOOR_GREY_MAX)
+    labels = np.zeros(grey.shape, dtype=np.int32)
+    blobs = []
+    h, w = grey.shape
+    for r0, c0 in zip(*np.nonzero(door)):
+        if labels[r0, c0]:
+            continue
+        label = len(blobs) + 1
+        stack = [(r0, c0)]
+        labels[r0, c0] = label
+        pixels = []
+        while stack:
+            r, c = stack.pop()
+            pixels.append((r, c))
+            for rr, cc in ((r + 1, c), (r - 1, c), (r, c + 1), (r, c - 1)):
+                if 0 <= rr < h and 0 <= cc < w and door[rr, cc] and not labels[rr, cc]:
+                    labels[rr, cc] = label
+                    stack.append((rr, cc))
+        blobs.append(labels == label)
+    return blobs
+
+
+def heightmap_geometry(
+    grey: np.ndarray,
+    resolution_m: float = COURSE_RESOLUTION_M,
+    origin: tuple[float, float] | None = None,
+) -> HeightmapGeometry:
+    """Convert a grey heightmap into wall segments in the map frame.
+
+    Args:
+        grey: (rows, cols) uint8 image.
+        resolution_m: metres per pixel.
+        origin: None for the course simulator's placement (image centre at the world origin,
+            world x up the image, world y to the left); else the world position of the lower-left
+            pixel corner with x right and y up, as a ROS map_server map.
+
+    Returns:
+        The visible, low and door segments.
+    """
+    rows, cols = grey.shape
+    doors = _door_blobs(grey)
+    obstacle = grey < 255
+    for blob in doors:
+        obstacle &= ~blob
+    height = (255.0 - grey.astype(np.float64)) / 255.0 * BLOCK_HEIGHT_M
+    visible = obstacle & (height >= LASER_PLANE_HEIGHT_M)
+    low = obstacle & ~visible
+
+    def to_world(seg_px: np.ndarray) -> Segments:
+        c = seg_px[:, [0, 2]]
+        r = seg_px[:, [1, 3]]
+        if origin is None:
+            x = (rows / 2.0 - r) * resolution_m
+            y = (cols / 2.0 - c) * resolution_m
+        else:
+            x = origin[0] + c * resolution_m
+            y = origin[1] + (rows - r) * resolution_m
+        return np.column_stack([x[:, 0], y[:, 0], x[:, 1], y[:, 1]])
+
+    return HeightmapGeometry(
+        visible=to_world(_boundary_segments(visible)),
+        low=to_world(_boundary_segments(low)),
+        doors=tuple(to_world(_boundary_segments(blob)) for blob in doors),
+    )
+

@@ -1,0 +1,388 @@
+"""The pico-gym map: a JSON file (a superset of the course's hospital maps) to a `Map` value.
+
+The format is documented in maps/README.md (and ../shared/map-format.md). Every course JSON map
+loads as it is; heightmap images load through the "heightmap" key or directly with
+`load_map("some.pgm")`. Every problem with a file raises `MapError` naming the file and the key
+or index at fault.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from dataclasses import dataclass, field
+from functools import cached_property
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from pico_gym.robot import PICO_OUTLINE
+from pico_gym.types import FloatArray, Pose, Segments
+from pico_gym.world import geometry
+from pico_gym.world.heightmap import COURSE_RESOLUTION_M, HeightmapGeometry, ImageError, heightmap_geometry, read_grey
+
+FORMAT_VERSION = 1
+IMAGE_SUFFIXES = (".png", ".pgm", ".pbm", ".ppm", ".bmp", ".jpg", ".jpeg", ".gif", ".tif", ".tiff")
+_KNOWN_KEYS = {
+    "version", "name", "points", "walls", "cabinets", "start_area", "start", "doors", "finish",
+    "start_pose", "obstacles", "movers", "heightmap",
+}
+_MOVER_KEYS = ("length", "width", "trigger_radius", "velocity", "init_pose", "final_pose", "repeat")
+
+
+class MapError(ValueError):
+    """A map file is missing, unreadable or inconsistent; the message names the file and the key."""
+
+
+@dataclass(frozen=True, eq=False)
+class Heightmap:
+    """A heightmap reference: the image path as written in the file, and its placement."""
+
+    image: str
+    resolution: float = COURSE_RESOLUTION_M
+    origin: tuple[float, float] | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class Map:
+    """A world: wall geometry plus the task annotations of the map file.
+
+    Index lists (walls, cabinets, start_area, doors) refer to `points`. Geometry from a heightmap
+    is available through the segment properties.
+    """
+
+    points: FloatArray = field(default_factory=lambda: np.zeros((0, 2)))
+    walls: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), dtype=np.int64))
+    cabinets: tuple[np.ndarray, ...] = ()
+    start_area: tuple[np.ndarray, ...] = ()
+    doors: tuple[np.ndarray, ...] = ()
+    name: str = ""
+    finish: FloatArray | None = None
+    start_pose: Pose | None = None
+    obstacles: tuple[FloatArray, ...] = ()
+    movers: tuple[dict[str, Any], ...] = ()
+    heightmap: Heightmap | None = None
+    extra: dict[str, Any] = field(default_factory=dict)
+    source: Path | None = None
+
+    # --- geometry -------------------------------------------------------------------------
+    @cached_property
+    def _heightmap_geometry(self) -> HeightmapGeometry | None:
+        if self.heightmap is None:
+            return None
+        base = self.source.parent if self.source is not None else Path.cwd()
+        path = (base / self.heightmap.image).resolve()
+        where = self.source or path
+        if not path.is_file():
+            raise MapError(f"{where}: heightmap.image: file not found: {path}")
+        try:
+            grey = read_grey(path)
+        except ImageError as error:
+            raise MapError(f"{where}: heightmap.image {path}: {error}") from error
+        return heightmap_geometry(grey, self.heightmap.resolution, self.heightmap.origin)
+
+    def _index_segments(self, pairs: np.ndarray) -> Segments:
+        pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+        return np.hstack([self.points[pairs[:, 0]], self.points[pairs[:, 1]]]).reshape(-1, 4)
+
+    @cached_property
+    def wall_segments(self) -> Segments:
+        """Walls the LRF sees: the walls and cabinets of the file plus visible heightmap blocks."""
+        parts = [self._index_segments(self.walls)]
+        parts += [self._index_segments(c) for c in self.cabinets]
+        if self._heightmap_geometry is not None:
+            parts.append(self._heightmap_geometry.visible)
+        return np.ascontiguousarray(np.vstack(parts)) if parts else np.zeros((0, 4))
+
+    @cached_property
+    def low_segments(self) -> Segments:
+        """Solid obstacles below the laser plane (from heightmaps): bumped into, never seen."""
+        geo = self._heightmap_geometry
+        return np.zeros((0, 4)) if geo is None else np.ascontiguousarray(geo.low)
+
+    @cached_property
+    def door_segments(self) -> tuple[Segments, ...]:
+        """One segment array per door (closed, the door blocks the opening)."""
+        doors = [self._index_segments(d) for d in self.doors]
+        if self._heightmap_geometry is not None:
+            doors += list(self._heightmap_geometry.doors)
+        return tuple(doors)
+
+    @cached_property
+    def obstacle_segments(self) -> Segments:
+        """Edges of the static obstacles (in the world, not in the map an agent is given)."""
+        if not self.obstacles:
+            return np.zeros((0, 4))
+        return np.ascontiguousarray(np.vstack([geometry.polygon_to_segments(p) for p in self.obstacles]))
+
+    def seen_segments(self, doors_closed: bool = True) -> Segments:
+        """All geometry the LRF sees: walls, cabinets, obstacles and (closed) doors."""
+        parts = [self.wall_segments, self.obstacle_segments]
+        if doors_closed:
+            parts += list(self.door_segments)
+        return np.ascontiguousarray(np.vstack(parts))
+
+    def solid_segments(self, doors_closed: bool = True) -> Segments:
+        """All geometry the robot collides with: what the LRF sees plus low obstacles."""
+        return np.ascontiguousarray(np.vstack([self.seen_segments(doors_closed), self.low_segments]))
+
+    @property
+    def bounds(self) -> tuple[float, float, float, float]:
+        """(xmin, ymin, xmax, ymax) of all solid geometry and the finish line."""
+        segs = self.solid_segments()
+        xs = np.concatenate([segs[:, 0], segs[:, 2]])
+        ys = np.concatenate([segs[:, 1], segs[:, 3]])
+        if self.finish is not None:
+            xs = np.concatenate([xs, self.finish[:, 0]])
+            ys = np.concatenate([ys, self.finish[:, 1]])
+        return float(xs.min()), float(ys.min()), float(xs.max()), float(ys.max())
+
+    def polygon(self, pairs: np.ndarray) -> FloatArray:
+        """Ordered vertices of a closed polygon given as [i, j] segments (cabinets, start areas)."""
+        return self.points[_cycle_order(np.asarray(pairs))]
+
+
+# --- loading ------------------------------------------------------------------------------
+
+
+def _fail(where: Any, key: str, message: str) -> MapError:
+    return MapError(f"{where}: {key}: {message}")
+
+
+def _number(value: Any, where: Any, key: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise _fail(where, key, f"expected a finite number, got {value!r}")
+    return float(value)
+
+
+def _xy(value: Any, where: Any, key: str) -> tuple[float, float]:
+    if isinstance(value, dict):
+        if "x" not in value or "y" not in value:
+            raise _fail(where, key, f"a point needs keys 'x' and 'y', got {sorted(value)}")
+        return _number(value["x"], where, key + ".x"), _number(value["y"], where, key + ".y")
+    if isinstance(value, (list, tuple)) and len(value) == 2:
+        return _number(value[0], where, key + "[0]"), _number(value[1], where, key + "[1]")
+    raise _fail(where, key, f"expected {{'x': .., 'y': ..}} or [x, y], got {value!r}")
+
+
+def _pairs(value: Any, n_points: int, where: Any, key: str) -> np.ndarray:
+    if not isinstance(value, list):
+        raise _fail(where, key, f"expected a list of [i, j] index pairs, got {type(value).__name__}")
+    out = np.zeros((len(value), 2), dtype=np.int64)
+    for k, pair in enumerate(value):
+        if not (isinstance(pair, list) and len(pair) == 2 and all(isinstance(i, int) and not isinstance(i, bool) for i in pair)):
+            raise _fail(where, f"{key}[{k}]", f"expected a pair of point indices [i, j], got {pair!r}")
+        for i in pair:
+            if not 0 <= i < n_points:
+                raise _fail(where, f"{key}[{k}]", f"point index {i} out of range (the map has {n_points} points: 0..{n_points - 1})")
+        out[k] = pair
+    return out
+
+
+def _cycle_order(pairs: np.ndarray) -> np.ndarray:
+    """Vertex order of the closed cycle formed by index pairs; ValueError if they do not close."""
+    if len(pairs) < 3:
+        raise ValueError(f"a closed polygon needs at least 3 segments, got {len(pairs)}")
+    neighbours: dict[int, list[int]] = {}
+    for i, j in pairs.tolist():
+        neighbours.setdefault(i, []).append(j)
+        neighbours.setdefault(j, []).append(i)
+    open_ends = [v for v, ns in neighbours.items() if len(ns) != 2]
+    if open_ends:
+        raise ValueError(f"segments do not form a closed polygon: point {open_ends[0]} is used by {len(neighbours[open_ends[0]])} segment(s), not 2")
+    order = [int(pairs[0, 0])]
+    prev, cur = None, int(pairs[0, 0])
+    while True:
+        a, b = neighbours[cur]
+        nxt = b if a == prev else a
+        if nxt == order[0]:
+            break
+        order.append(nxt)
+        prev, cur = cur, nxt
+    if len(order) != len(neighbours):
+        raise ValueError("segments form more than one loop, not one closed polygon")
+    return np.array(order)
+
+
+def _polygons(value: Any, n_points: int, where: Any, key: str) -> tuple[np.ndarray, ...]:
+    if not isinstance(value, list):
+        raise _fail(where, key, f"expected a list of polygons, got {type(value).__name__}")
+    polys = []
+    for k, poly in enumerate(value):
+        pairs = _pairs(poly, n_points, where, f"{key}[{k}]")
+        try:
+            _cycle_order(pairs)
+        except ValueError as error:
+            raise _fail(where, f"{key}[{k}]", str(error)) from None
+        polys.append(pairs)
+    return tuple(polys)
+
+
+def map_from_dict(data: Any, source: Path | None = None) -> Map:
+    """Build a `Map` from the parsed JSON of a map file; `source` is used in messages and paths."""
+    where = source or "<map>"
+    if not isinstance(data, dict):
+        raise MapError(f"{where}: a map file must hold a JSON object, got {type(data).__name__}")
+    version = data.get("version", FORMAT_VERSION)
+    if version != FORMAT_VERSION:
+        raise _fail(where, "version", f"unsupported version {version!r} (this pico-gym reads {FORMAT_VERSION})")
+    if "walls" not in data and "heightmap" not in data:
+        raise MapError(f"{where}: missing key 'walls' (a map needs 'walls' with 'points', or a 'heightmap')")
+
+    points_raw = data.get("points", [])
+    if not isinstance(points_raw, list):
+        raise _fail(where, "points", f"expected a list, got {type(points_raw).__name__}")
+    if "walls" in data and "points" not in data:
+        raise MapError(f"{where}: missing key 'points' (needed by 'walls')")
+    points = np.array([_xy(p, where, f"points[{i}]") for i, p in enumerate(points_raw)], dtype=np.float64).reshape(-1, 2)
+    n = len(points)
+    walls = _pairs(data.get("walls", []), n, where, "walls")
+    cabinets = _polygons(data.get("cabinets", []), n, where, "cabinets")
+    start_key = "start_area" if "start_area" in data else "start"
+    start_area = _polygons(data.get(start_key, []), n, where, start_key)
+    doors = _polygons(data.get("doors", []), n, where, "doors")
+
+    name = data.get("name", source.stem if source is not None else "")
+    if not isinstance(name, str):
+        raise _fail(where, "name", f"expected a string, got {name!r}")
+
+    finish = None
+    if "finish" in data:
+        f = data["finish"]
+        if not (isinstance(f, list) and len(f) == 2):
+            raise _fail(where, "finish", f"expected [[x1, y1], [x2, y2]], got {f!r}")
+        finish = np.array([_xy(p, where, f"finish[{i}]") for i, p in enumerate(f)])
+        if np.allclose(finish[0], finish[1]):
+            raise _fail(where, "finish", "the two end points coincide")
+
+    start_pose = None
+    if "start_pose" in data:
+        sp = data["start_pose"]
+        if not isinstance(sp, dict):
+            raise _fail(where, "start_pose", f"expected {{'x', 'y', 'theta'}}, got {sp!r}")
+        for k in ("x", "y", "theta"):
+            if k not in sp:
+                raise _fail(where, "start_pose", f"missing key '{k}'")
+        start_pose = Pose(*(_number(sp[k], where, f"start_pose.{k}") for k in ("x", "y", "theta")))
+
+    obstacles = []
+    for k, ob in enumerate(data.get("obstacles", [])):
+        poly = ob.get("polygon") if isinstance(ob, dict) else None
+        if not isinstance(poly, list) or len(poly) < 3:
+            raise _fail(where, f"obstacles[{k}]", "expected {'polygon': [[x, y], ...]} with at least 3 vertices")
+        obstacles.append(np.array([_xy(p, where, f"obstacles[{k}].polygon[{i}]") for i, p in enumerate(poly)]))
+
+    movers = []
+    for k, mv in enumerate(data.get("movers", [])):
+        if not isinstance(mv, dict):
+            raise _fail(where, f"movers[{k}]", f"expected an object, got {mv!r}")
+        for key in _MOVER_KEYS:
+            if key not in mv:
+                raise _fail(where, f"movers[{k}]", f"missing key '{key}'")
+        movers.append(dict(mv))
+
+    heightmap = None
+    if "heightmap" in data:
+        hm = data["heightmap"]
+        if not isinstance(hm, dict) or not isinstance(hm.get("image"), str):
+            raise _fail(where, "heightmap", "expected {'image': 'path.png', 'resolution': 0.025, 'origin': [x, y]}")
+        resolution = _number(hm.get("resolution", COURSE_RESOLUTION_M), where, "heightmap.resolution")
+        if resolution <= 0:
+            raise _fail(where, "heightmap.resolution", f"must be positive, got {resolution}")
+        origin = _xy(hm["origin"], where, "heightmap.origin") if "origin" in hm else None
+        heightmap = Heightmap(hm["image"], resolution, origin)
+
+    extra = {k: v for k, v in data.items() if k not in _KNOWN_KEYS}
+    result = Map(
+        points=points,
+        walls=walls,
+        cabinets=cabinets,
+        start_area=start_area,
+        doors=doors,
+        name=name,
+        finish=finish,
+        start_pose=start_pose,
+        obstacles=tuple(obstacles),
+        movers=tuple(movers),
+        heightmap=heightmap,
+        extra=extra,
+        source=source,
+    )
+    result.wall_segments  # noqa: B018  (reads the heightmap now, so its errors surface at load time)
+    if start_pose is not None:
+        _check_start_pose(result, where)
+    return result
+
+
+def _check_start_pose(world: Map, where: Any) -> None:
+    footprint = geometry.transform_points(world.start_pose, PICO_OUTLINE)
+    solid = world.solid_segments()
+    if geometry.polygon_clearance(footprint, solid) <= 0.0:
+        x, y, th = world.start_pose
+        raise _fail(where, "start_pose", f"the robot at ({x:.3f}, {y:.3f}, {th:.3f}) overlaps a wall")
+
+
+def load_map(path: str | os.PathLike[str]) -> Map:
+    """Load a map file: pico-gym/course JSON, or a course heightmap image (PGM/PNG/...).
+
+    Raises:
+        MapError: naming the file and the key or index at fault.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise MapError(f"{path}: no such map file")
+    if path.suffix.lower() in IMAGE_SUFFIXES:
+        return map_from_dict({"name": path.stem, "heightmap": {"image": path.name}}, path)
+    try:
+        data = json.loads(path.read_text())
+    except UnicodeDecodeError as error:
+        raise MapError(f"{path}: not a JSON file (not text: {error.reason})") from None
+    except json.JSONDecodeError as error:
+        raise MapError(f"{path}: not valid JSON: {error.msg} at line {error.lineno}, column {error.colno}") from None
+    return map_from_dict(data, path)
+
+
+def map_to_dict(world: Map, relative_to: Path | None = None) -> dict[str, Any]:
+    """The JSON object of a map. Heightmap paths are rewritten relative to `relative_to`."""
+    data: dict[str, Any] = {"version": FORMAT_VERSION}
+    if world.name:
+        data["name"] = world.name
+    data["points"] = [[float(x), float(y)] for x, y in world.points]
+    data["walls"] = world.walls.tolist()
+    if world.cabinets:
+        data["cabinets"] = [c.tolist() for c in world.cabinets]
+    if world.start_area:
+        data["start_area"] = [s.tolist() for s in world.start_area]
+    if world.doors:
+        data["doors"] = [d.tolist() for d in world.doors]
+    if world.finish is not None:
+        data["finish"] = world.finish.tolist()
+    if world.start_pose is not None:
+        data["start_pose"] = dict(zip(("x", "y", "theta"), map(float, world.start_pose)))
+    if world.obstacles:
+        data["obstacles"] = [{"polygon": p.tolist()} for p in world.obstacles]
+    if world.movers:
+        data["movers"] = [dict(m) for m in world.movers]
+    if world.heightmap is not None:
+        image = world.heightmap.image
+        if world.source is not None and relative_to is not None:
+            image = os.path.relpath((world.source.parent / image).resolve(), relative_to.resolve())
+        hm: dict[str, Any] = {"image": image, "resolution": world.heightmap.resolution}
+        if world.heightmap.origin is not None:
+            hm["origin"] = list(world.heightmap.origin)
+        data["heightmap"] = hm
+    data.update(world.extra)
+    return data
+
+
+def save_map(world: Map, path: str | os.PathLike[str]) -> None:
+    """Write a map as a pico-gym JSON map file."""
+    path = Path(path)
+    path.write_text(json.dumps(map_to_dict(world, relative_to=path.parent), indent=1) + "\n")
+
+
+def maps_equal(a: Map, b: Map) -> bool:
+    """True when two maps hold the same content (the source path aside)."""
+    return map_to_dict(a) == map_to_dict(b) and np.array_equal(a.wall_segments, b.wall_segments)
