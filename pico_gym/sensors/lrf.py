@@ -183,11 +183,16 @@ def lrf_ranges(
     Returns:
         A float64 array, one range per beam, `inf` where the beam hits nothing within max_range.
 
+    Raises:
+        ValueError: when the beam angles are not in ascending order.
+
     >>> square = np.array([[-1, -1, 1, -1], [1, -1, 1, 1], [1, 1, -1, 1], [-1, 1, -1, -1]], float)
     >>> lrf_ranges(Pose(0.0, 0.0, 0.0), square, np.array([0.0, math.pi / 4])).round(6).tolist()
     [1.0, 1.414214]
     """
-    beam_angles = np.ascontiguousarray(beam_angles, dtype=np.float64)
+    beam_angles = np.ascontiguousarray(beam_angles, dtype=np.float64).reshape(-1)
+    if np.any(np.diff(beam_angles) < 0.0):
+        raise ValueError("beam_angles must be sorted in ascending order")
     out = np.empty(beam_angles.shape[0])
     _cast(
         float(pose[0]),

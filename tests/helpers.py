@@ -1,0 +1,23 @@
+"""Small worlds built in code, and where the course's reference maps are."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+REFERENCE_MAPS = Path(__file__).resolve().parents[1].parent / "shared" / "reference-maps"
+
+
+def box_room(half: float = 2.0) -> dict:
+    """A closed square room of side 2*half centred on the origin (pico-gym JSON)."""
+    h = half
+    return {
+        "points": [[-h, -h], [h, -h], [h, h], [-h, h]],
+        "walls": [[0, 1], [1, 2], [2, 3], [3, 0]],
+    }
+
+
+def square_segments(half: float = 2.0) -> np.ndarray:
+    h = half
+    return np.array([[-h, -h, h, -h], [h, -h, h, h], [h, h, -h, h], [-h, h, -h, -h]], dtype=float)

@@ -1,0 +1,114 @@
+"""The LRF: exact ranges in rooms whose answers are known by hand, noise and configuration."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from helpers import square_segments
+
+from pico_gym.sensors.lrf import Lrf, LrfConfig, lrf_ranges
+from pico_gym.types import Pose
+
+
+def brute_force(pose: Pose, segments: np.ndarray, angles: np.ndarray, max_range: float) -> np.ndarray:
+    """Test every beam against every segment (the reference the broad phase must match)."""
+    out = np.full(len(angles), np.inf)
+    for i, a in enumerate(angles):
+        dx, dy = math.cos(pose.theta + a), math.sin(pose.theta + a)
+        for x1, y1, x2, y2 in segments:
+            ex, ey = x2 - x1, y2 - y1
+            px, py = x1 - pose.x, y1 - pose.y
+            den = dx * ey - dy * ex
+            if den == 0:
+                continue
+            t = (px * ey - py * ex) / den
+            u = (px * dy - py * dx) / den
+            if t > 0 and -1e-9 <= u <= 1 + 1e-9 and t <= max_range:
+                out[i] = min(out[i], t)
+    return out
+
+
+def test_square_room_from_centre() -> None:
+    angles = np.array([-math.pi / 2, -math.pi / 4, 0.0, math.atan2(1, 2), math.pi / 4, math.pi / 2])
+    r = lrf_ranges(Pose(0.0, 0.0, 0.0), square_segments(2.0), angles)
+    expected = [2.0, 2 * math.sqrt(2), 2.0, math.hypot(2.0, 1.0), 2 * math.sqrt(2), 2.0]
+    assert r == pytest.approx(expected, abs=1e-12)
+
+
+def test_square_room_off_centre_and_rotated() -> None:
+    # Robot at (1, 0.5) facing +y: bearing 0 looks up (to y=2), -pi/2 looks right (to x=2).
+    pose = Pose(1.0, 0.5, math.pi / 2)
+    angles = np.array([-math.pi / 2, 0.0, math.pi / 4, math.pi / 2])
+    r = lrf_ranges(pose, square_segments(2.0), angles)
+    # pi/4 from +y is towards (-1, 1)/sqrt2: hits x = -2 after 3*sqrt2 or y = 2 after 1.5*sqrt2.
+    assert r == pytest.approx([1.0, 1.5, 1.5 * math.sqrt(2), 3.0], abs=1e-12)
+    with pytest.raises(ValueError, match="ascending"):
+        lrf_ranges(pose, square_segments(2.0), angles[::-1])
+
+
+def test_beam_grazing_a_corner() -> None:
+    # From the centre, the beam at exactly 45 degrees ends in the corner shared by two walls.
+    r = lrf_ranges(Pose(0.0, 0.0, 0.0), square_segments(1.0), np.array([math.pi / 4]))
+    assert r[0] == pytest.approx(math.sqrt(2), abs=1e-12)
+    # A free-standing wall: a beam through its end point hits, one just beside it misses.
+    wall = np.array([[1.0, 0.0, 1.0, 1.0]])
+    end = math.pi / 4
+    r = lrf_ranges(Pose(0.0, 0.0, 0.0), wall, np.array([end - 1e-6, end, end + 1e-6]))
+    assert r[0] == pytest.approx(1 / math.cos(end - 1e-6), rel=1e-9)
+    assert r[1] == pytest.approx(math.sqrt(2), rel=1e-9)
+    assert math.isinf(r[2])
+
+
+def test_beam_through_open_corridor_end_reads_range_max() -> None:
+    # A corridor along +x with an open far end: the beam along its axis hits nothing.
+    corridor = np.array([[0.0, -0.4, 6.0, -0.4], [0.0, 0.4, 6.0, 0.4], [0.0, -0.4, 0.0, 0.4]])
+    lrf = Lrf(LrfConfig(n_beams=5, angle_min_rad=-0.1, angle_max_rad=0.1, noise_m=0.0))
+    scan = lrf.scan(Pose(1.0, 0.0, 0.0), corridor, np.random.default_rng(0))
+    assert scan[2] == pytest.approx(10.0)  # range_max
+    legacy = Lrf(LrfConfig(n_beams=5, angle_min_rad=-0.1, angle_max_rad=0.1, noise_m=0.0, no_hit="zero"))
+    assert legacy.scan(Pose(1.0, 0.0, 0.0), corridor, np.random.default_rng(0))[2] == 0.0
+
+
+@pytest.mark.parametrize("n_segments", [5, 40, 300])
+def test_broad_phase_matches_brute_force(n_segments: int) -> None:
+    rng = np.random.default_rng(n_segments)
+    mid = rng.uniform(-6, 6, size=(n_segments, 2))
+    half = rng.uniform(-1.5, 1.5, size=(n_segments, 2))
+    segments = np.hstack([mid - half, mid + half])
+    angles = LrfConfig().beam_angles
+    for theta in (-3.0, -0.5, 0.0, 1.7, math.pi):
+        pose = Pose(0.2, -0.3, theta)
+        fast = lrf_ranges(pose, segments, angles, 10.0)
+        slow = brute_force(pose, segments, angles, 10.0)
+        assert np.array_equal(np.isinf(fast), np.isinf(slow))
+        finite = np.isfinite(slow)
+        assert fast[finite] == pytest.approx(slow[finite], abs=1e-9)
+
+
+def test_fewer_beams_are_computed_directly() -> None:
+    lrf = Lrf(LrfConfig(n_beams=64, noise_m=0.0))
+    assert lrf.space().shape == (64,)
+    scan = lrf.scan(Pose(0.3, 0.2, 0.4), square_segments(2.0), np.random.default_rng(0))
+    exact = lrf_ranges(Pose(0.3, 0.2, 0.4), square_segments(2.0), np.linspace(-2, 2, 64))
+    assert scan == pytest.approx(exact.astype(np.float32), abs=1e-5)
+
+
+def test_noise_is_uniform_within_bounds_and_seeded() -> None:
+    lrf = Lrf(LrfConfig())
+    pose = Pose(0.0, 0.0, 0.0)
+    exact = lrf.exact(pose, square_segments(2.0)).copy()
+    scans = np.array([lrf.scan(pose, square_segments(2.0), np.random.default_rng(s)) for s in range(20)])
+    err = scans - exact
+    assert np.all(np.abs(err) <= 0.01 + 1e-6)
+    assert err.std() == pytest.approx(0.02 / math.sqrt(12), rel=0.05)  # U(-0.01, 0.01)
+    again = lrf.scan(pose, square_segments(2.0), np.random.default_rng(3))
+    assert np.array_equal(again, scans[3])
+
+
+def test_config_validation() -> None:
+    with pytest.raises(ValueError, match="n_beams"):
+        LrfConfig(n_beams=0)
+    with pytest.raises(ValueError, match="no_hit"):
+        LrfConfig(no_hit="nan")

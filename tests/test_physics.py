@@ -1,0 +1,99 @@
+"""Physics: walls are solid at any speed and heading, bumps are counted once per contact."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from pico_gym.physics import Physics, PhysicsConfig
+from pico_gym.robot import RobotConfig
+from pico_gym.types import Pose
+from pico_gym.world import geometry
+
+ROBOT = RobotConfig()
+
+
+def wall_of_thickness(thickness: float) -> np.ndarray:
+    """A long wall whose near face is the line x = 1 (zero thickness: a single segment)."""
+    if thickness == 0.0:
+        return np.array([[1.0, -20.0, 1.0, 20.0]])
+    return geometry.polygon_to_segments(np.array([[1.0, -20.0], [1.0 + thickness, -20.0], [1.0 + thickness, 20.0], [1.0, 20.0]]))
+
+
+def drive(physics: Physics, world_direction: float, turn: float, steps: int) -> None:
+    for k in range(steps):
+        angle = physics.body.angle
+        wx, wy = 0.5 * math.cos(world_direction), 0.5 * math.sin(world_direction)
+        c, s = math.cos(angle), math.sin(angle)
+        w = turn if (k // 10) % 2 == 0 else -turn
+        physics.step(c * wx + s * wy, -s * wx + c * wy, w, 0.1)
+        yield physics
+
+
+@pytest.mark.parametrize("thickness", [0.0, 0.02, 0.2])
+def test_no_tunnelling_at_full_speed(thickness: float) -> None:
+    segments = wall_of_thickness(thickness)
+    for heading in np.linspace(-math.pi, math.pi, 12, endpoint=False):
+        for direction in (-1.2, -0.6, 0.0, 0.6, 1.2):
+            for turn in (0.0, 1.2):
+                physics = Physics(segments, ROBOT, PhysicsConfig(), Pose(0.0, 0.0, float(heading)))
+                for p in drive(physics, direction, turn, 80):
+                    pose = p.pose
+                    footprint = geometry.transform_points(pose, ROBOT.outline)
+                    assert footprint[:, 0].max() < 1.0, f"crossed into the wall at {pose}"
+                    assert geometry.polygon_clearance(footprint, segments) > 0.0
+
+
+def test_no_tunnelling_into_a_concave_corner() -> None:
+    corner = np.array([[1.0, -5.0, 1.0, 1.0], [1.0, 1.0, -5.0, 1.0]])
+    for heading in np.linspace(-math.pi, math.pi, 8, endpoint=False):
+        physics = Physics(corner, ROBOT, PhysicsConfig(), Pose(0.0, 0.0, float(heading)))
+        for p in drive(physics, math.pi / 4, 1.2, 80):
+            footprint = geometry.transform_points(p.pose, ROBOT.outline)
+            assert footprint[:, 0].max() < 1.0 and footprint[:, 1].max() < 1.0
+            assert geometry.polygon_clearance(footprint, corner) > 0.0
+
+
+def test_bump_counted_once_per_contact() -> None:
+    segments = wall_of_thickness(0.0)
+    physics = Physics(segments, ROBOT, PhysicsConfig(), Pose(0.0, 0.0, 0.0))
+    for _ in range(60):  # reach the wall, then keep pushing for seconds
+        physics.step(0.5, 0.0, 0.0, 0.1)
+    assert physics.bumps == 1
+    for _ in range(60):  # slide along it while pushing
+        physics.step(0.3, 0.4, 0.0, 0.1)
+    assert physics.bumps == 1
+    for _ in range(10):  # back off
+        physics.step(-0.5, 0.0, 0.0, 0.1)
+    assert not physics.in_contact
+    for _ in range(20):  # and hit it again
+        physics.step(0.5, 0.0, 0.0, 0.1)
+    assert physics.bumps == 2
+
+
+def test_free_space_follows_the_command_exactly() -> None:
+    physics = Physics(np.zeros((0, 4)), ROBOT, PhysicsConfig(), Pose(1.0, 2.0, 0.5))
+    physics.step(0.3, -0.2, 0.8, 0.1, clearance_m=10.0)
+    from pico_gym.sensors.odometry import integrate_twist
+
+    expected = integrate_twist(Pose(1.0, 2.0, 0.5), 0.3, -0.2, 0.8, 0.1)
+    assert physics.pose == pytest.approx(expected, abs=1e-12)
+
+
+def test_substeps_and_fast_path_agree() -> None:
+    """The free-space shortcut lands where pymunk's sub-steps do (within the drive's lag)."""
+    a = Physics(np.zeros((0, 4)), ROBOT, PhysicsConfig(), Pose(0.0, 0.0, 0.0))
+    b = Physics(np.zeros((0, 4)), ROBOT, PhysicsConfig(), Pose(0.0, 0.0, 0.0))
+    for _ in range(20):
+        a.step(0.4, 0.1, 0.6, 0.1, clearance_m=0.0)
+        b.step(0.4, 0.1, 0.6, 0.1, clearance_m=10.0)
+    assert a.pose == pytest.approx(b.pose, abs=0.01)
+
+
+def test_acceleration_limit_ramps_the_speed() -> None:
+    robot = RobotConfig(max_accel_mps2=1.0)
+    physics = Physics(np.zeros((0, 4)), robot, PhysicsConfig(), Pose(0.0, 0.0, 0.0))
+    physics.step(0.5, 0.0, 0.0, 0.1)
+    assert physics.body.velocity.x == pytest.approx(0.1, abs=0.02)  # 1 m/s^2 for 0.1 s
