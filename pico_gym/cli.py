@@ -46,7 +46,10 @@ def cmd_maps(args: argparse.Namespace) -> int:
             world = load_shipped(name)
             x0, y0, x1, y1 = world.bounds
             finish = "yes" if world.finish is not None else "-"
-            print(f"{name:<24} {x1 - x0:5.1f} x {y1 - y0:<5.1f} {len(world.solid_segments()):>8}  {finish:<6}  {path.name}")
+            print(
+                f"{name:<24} {x1 - x0:5.1f} x {y1 - y0:<5.1f} {len(world.solid_segments()):>8}"
+                f"  {finish:<6}  {path.name}"
+            )
         return 0
     world = load_shipped(args.name)
     out = args.png or f"{args.name}.png"
@@ -96,10 +99,15 @@ def cmd_rollout(args: argparse.Namespace) -> int:
     world = env.unwrapped.episode.map
     print(f"map: {world.name}   seed: {args.seed}   policy: {args.policy}")
     print(f"outcome: {info['termination_reason']}   success: {info['is_success']}")
-    print(f"time: {info['sim_time']:.1f} s   bumps: {info['bumps']}   path: {info['path_length']:.2f} m   "
-          f"shortest path: {info['shortest_path_length']:.2f} m   min clearance: {info['min_clearance']:.3f} m")
+    print(
+        f"time: {info['sim_time']:.1f} s   bumps: {info['bumps']}   path: {info['path_length']:.2f} m   "
+        f"shortest path: {info['shortest_path_length']:.2f} m   min clearance: {info['min_clearance']:.3f} m"
+    )
     err = info["odom_error"]
-    print(f"return: {reward_sum:.2f}   odometry error at the end: {np.hypot(err[0], err[1]):.3f} m, {np.degrees(err[2]):.2f} deg")
+    print(
+        f"return: {reward_sum:.2f}   odometry error at the end: "
+        f"{np.hypot(err[0], err[1]):.3f} m, {np.degrees(err[2]):.2f} deg"
+    )
     return 0
 
 
@@ -125,8 +133,10 @@ def _versions() -> str:
 
     import pico_gym
 
-    return (f"pico-gym {pico_gym.__version__}, Python {platform.python_version()}, numpy {np.__version__}, "
-            f"gymnasium {gymnasium.__version__}, pymunk {pymunk.version}, numba {numba.__version__}")
+    return (
+        f"pico-gym {pico_gym.__version__}, Python {platform.python_version()}, numpy {np.__version__}, "
+        f"gymnasium {gymnasium.__version__}, pymunk {pymunk.version}, numba {numba.__version__}"
+    )
 
 
 def _median_rate(fn: Callable[[], int], repeats: int) -> tuple[float, list[float]]:
@@ -191,12 +201,15 @@ def cmd_bench_env(args: argparse.Namespace) -> int:
         ("PicoEscape-v0, 1000 beams, defaults (collision=terminate)", {}),
         ("PicoEscape-v0, 1000 beams, collision=continue", {"collision": "continue"}),
         ("PicoEscape-v0, 64 beams, collision=continue", {"collision": "continue", "n_beams": 64}),
+        ("PicoEscape-v0, 1000 beams, pymunk sub-steps on every step", {"free_space_shortcut": False}),
     ]
     for label, kwargs in rows:
         run = _env_rate(args.steps, args.seed, **kwargs)
         median, rates = _median_rate(run, args.repeats)
-        print(f"{label:<60} {median:9,.0f} steps/s   (runs: {', '.join(f'{r:,.0f}' for r in rates)}; "
-              f"{run.resets} episode ends per {args.steps:,} steps)")
+        print(
+            f"{label:<60} {median:9,.0f} steps/s   (runs: {', '.join(f'{r:,.0f}' for r in rates)}; "
+            f"{run.resets} episode ends per {args.steps:,} steps)"
+        )
 
     env = gym.make("PicoEscape-v0")
     env.reset(seed=args.seed)
@@ -233,7 +246,7 @@ def cmd_bench_env(args: argparse.Namespace) -> int:
         for a in batch[:100]:
             venv.step(a)
 
-        def vec_run() -> int:
+        def vec_run(venv: gym.vector.VectorEnv = venv, batch: list = batch) -> int:
             for a in batch:
                 venv.step(a)
             return 2 * len(batch)

@@ -15,7 +15,11 @@ C = TypeVar("C")
 
 
 def _nested(config: Any) -> list[tuple[str, Any]]:
-    return [(f.name, getattr(config, f.name)) for f in dataclasses.fields(config) if dataclasses.is_dataclass(getattr(config, f.name))]
+    return [
+        (f.name, getattr(config, f.name))
+        for f in dataclasses.fields(config)
+        if dataclasses.is_dataclass(getattr(config, f.name))
+    ]
 
 
 def _find(config: Any, key: str, path: tuple[str, ...] = ()) -> list[tuple[str, ...]]:

@@ -49,6 +49,8 @@ class PhysicsConfig:
         robot_mass_kg: mass of the robot [kg].
         drive_force_n: force limit of the translational drive [N].
         drive_torque_nm: torque limit of the rotational drive [N m].
+        free_space_shortcut: advance the robot by exact integration when no contact is possible
+            (see the module docstring); False sub-steps pymunk every step.
     """
 
     substep_s: float = 0.01
@@ -59,6 +61,7 @@ class PhysicsConfig:
     robot_mass_kg: float = 30.0
     drive_force_n: float = 1000.0
     drive_torque_nm: float = 100.0
+    free_space_shortcut: bool = True
 
     def __post_init__(self) -> None:
         if self.substep_s <= 0 or self.iterations < 1:
@@ -92,7 +95,7 @@ class Physics:
         areas = [pymunk.area_for_poly(part, skin) for part in parts]
         moment = sum(
             pymunk.moment_for_poly(config.robot_mass_kg * area / sum(areas), part, radius=skin)
-            for area, part in zip(areas, parts)
+            for area, part in zip(areas, parts, strict=True)
         )
         body = pymunk.Body(config.robot_mass_kg, moment)
         body.position = (pose.x, pose.y)
@@ -164,7 +167,8 @@ class Physics:
         n = max(1, round(duration_s / h))
         robot = self.robot
         free = (
-            robot.max_accel_mps2 is None
+            self.config.free_space_shortcut
+            and robot.max_accel_mps2 is None
             and robot.max_angular_accel_radps2 is None
             and self.contacts == 0
             and clearance_m > self.sweep_m(vx, vy, w, duration_s) + 2.0 * self.config.contact_skin_m

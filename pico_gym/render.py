@@ -62,7 +62,7 @@ class View:
         p = np.asarray(points, dtype=float).reshape(-1, 2)
         u = self.size / 2 + (p[:, 0] - self.cx) * self.scale
         v = self.size / 2 - (p[:, 1] - self.cy) * self.scale
-        return [(int(round(a)), int(round(b))) for a, b in zip(u, v)]
+        return [(int(round(a)), int(round(b))) for a, b in zip(u, v, strict=True)]
 
 
 def draw_map(surface: Any, world: Map, view: View) -> None:
@@ -172,7 +172,6 @@ class Renderer:
         return np.transpose(pygame.surfarray.array3d(surface), (1, 0, 2)).copy()
 
     def _draw_scan(self, surface: Any, view: View, env: PicoEnv, pose: Pose) -> None:
-        pygame = _pygame()
         ranges = env._last_scan.astype(float)
         cfg = env.config.lrf
         hit = (ranges > cfg.range_min_m) & (ranges < cfg.range_max_m)
@@ -213,4 +212,3 @@ class Renderer:
             pygame = _pygame()
             pygame.display.quit()
             self.window = None
-

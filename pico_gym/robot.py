@@ -62,9 +62,7 @@ class RobotConfig:
     max_turn_rate_radps: float = PICO_MAX_TURN_RATE_RADPS
     max_accel_mps2: float | None = None
     max_angular_accel_radps2: float | None = None
-    wheel_angles_rad: tuple[float, float, float] = field(
-        default=(math.pi / 3.0, math.pi, -math.pi / 3.0)
-    )
+    wheel_angles_rad: tuple[float, float, float] = field(default=(math.pi / 3.0, math.pi, -math.pi / 3.0))
     wheel_distance_m: float = PICO_WHEEL_RADIUS_FROM_CENTRE_M
 
     def __post_init__(self) -> None:
@@ -119,7 +117,7 @@ def clip_twist(action: np.ndarray, config: RobotConfig) -> tuple[float, float, f
     if a.size != 3:
         raise ValueError(f"action must have 3 components (vx, vy, w), got shape {np.shape(action)}")
     vx, vy, w = a.ravel().tolist()
-    for name, value in zip(ACTION_NAMES, (vx, vy, w)):
+    for name, value in zip(ACTION_NAMES, (vx, vy, w), strict=True):
         if not math.isfinite(value):
             raise ValueError(f"action component {name} is {value}; actions must be finite")
     vmax = config.max_speed_mps

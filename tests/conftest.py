@@ -11,6 +11,7 @@ import pytest
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
 os.environ.setdefault("SDL_AUDIODRIVER", "dummy")
 
+
 @pytest.fixture
 def write_json(tmp_path: Path):
     """Write a dict as a JSON map file and return its path."""

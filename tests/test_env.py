@@ -43,8 +43,19 @@ def test_spaces_match_the_spec() -> None:
     assert env.action_space.high == pytest.approx([0.5, 0.5, 1.2])
     obs, info = env.reset(seed=0)
     assert obs["odom"] == pytest.approx([0.0, 0.0, 0.0])  # odometry starts at zero
-    assert {"pose", "odom_error", "bumps", "min_clearance", "sim_time", "path_length", "geodesic_to_finish",
-            "shortest_path_length", "is_success", "termination_reason", "reward_terms"} <= set(info)
+    assert {
+        "pose",
+        "odom_error",
+        "bumps",
+        "min_clearance",
+        "sim_time",
+        "path_length",
+        "geodesic_to_finish",
+        "shortest_path_length",
+        "is_success",
+        "termination_reason",
+        "reward_terms",
+    } <= set(info)
 
 
 def test_pickling_an_env_mid_episode() -> None:
@@ -64,7 +75,9 @@ def test_rgb_array_frames_and_overlay() -> None:
     env.reset(seed=2)
     plain = env.render()
     assert plain.shape == (640, 640, 3) and plain.dtype == np.uint8
-    env.unwrapped.set_overlay(lambda: Overlay(frame="robot", segments=np.array([[0.4, -0.3, 0.4, 0.3]]), target=np.array([0.6, 0.0])))
+    env.unwrapped.set_overlay(
+        lambda: Overlay(frame="robot", segments=np.array([[0.4, -0.3, 0.4, 0.3]]), target=np.array([0.6, 0.0]))
+    )
     drawn = env.render()
     assert (drawn != plain).any()
 
@@ -79,7 +92,9 @@ def test_human_mode_runs_headless() -> None:
 
 def test_record_video(tmp_path: Path) -> None:
     pytest.importorskip("moviepy")
-    env = gym.wrappers.RecordVideo(gym.make("PicoEscape-v0", render_mode="rgb_array"), str(tmp_path), disable_logger=True)
+    env = gym.wrappers.RecordVideo(
+        gym.make("PicoEscape-v0", render_mode="rgb_array"), str(tmp_path), disable_logger=True
+    )
     env.reset(seed=0)
     for _ in range(15):
         env.step(np.array([0.0, 0.0, 0.5]))
@@ -112,7 +127,10 @@ def test_determinism_across_processes() -> None:
         from test_env import rollout_digest
         print(rollout_digest(11, slip_std=0.05, n_obstacles=2))
     """)
-    out = [subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip() for _ in range(2)]
+    out = [
+        subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip()
+        for _ in range(2)
+    ]
     assert out[0] == out[1] == rollout_digest(11, slip_std=0.05, n_obstacles=2)
 
 
@@ -170,7 +188,7 @@ def test_bump_terminates_by_default_and_continue_keeps_going() -> None:
 def test_idle_ends_after_30_seconds() -> None:
     env = gym.make("PicoEscape-v0")
     env.reset(seed=0)
-    for step in range(1, 400):
+    for step in range(1, 400):  # noqa: B007  (read after the loop)
         _, _, terminated, truncated, info = env.step(np.zeros(3))
         if terminated or truncated:
             break
@@ -180,7 +198,7 @@ def test_idle_ends_after_30_seconds() -> None:
 def test_timeout_truncates_at_300_simulated_seconds() -> None:
     env = gym.make("PicoEscape-v0", dt_s=0.2, idle_time_s=1000.0)
     env.reset(seed=0)
-    for step in range(1, 2000):
+    for step in range(1, 2000):  # noqa: B007  (read after the loop)
         _, _, terminated, truncated, info = env.step(np.array([0.0, 0.0, 1.0]))
         if terminated or truncated:
             break

@@ -101,8 +101,14 @@ BAD_MAPS = [
     ({"walls": [[0, 1]]}, "missing key 'points'"),
     ({"points": [[0, 0], [1, 0]], "walls": [[0, 5]]}, r"walls\[0\]: point index 5 out of range"),
     ({"points": [[0, 0], {"x": 1}], "walls": []}, r"points\[1\]: a point needs keys 'x' and 'y'"),
-    ({"points": [[0, 0], [1, 0], [1, 1]], "walls": [], "cabinets": [[[0, 1], [1, 2]]]}, r"cabinets\[0\]: .*closed polygon"),
-    ({"points": [[0, 0], [1, 0], [1, 1], [0, 1]], "walls": [], "start_area": [[[0, 1], [1, 2], [2, 3]]]}, r"start_area\[0\]: .*closed polygon"),
+    (
+        {"points": [[0, 0], [1, 0], [1, 1]], "walls": [], "cabinets": [[[0, 1], [1, 2]]]},
+        r"cabinets\[0\]: .*closed polygon",
+    ),
+    (
+        {"points": [[0, 0], [1, 0], [1, 1], [0, 1]], "walls": [], "start_area": [[[0, 1], [1, 2], [2, 3]]]},
+        r"start_area\[0\]: .*closed polygon",
+    ),
     ({**box_room(), "start_pose": {"x": 1.95, "y": 0.0, "theta": 0.0}}, "start_pose: the robot at .* overlaps a wall"),
     ({**box_room(), "start_pose": {"x": 0.0, "y": 0.0}}, "start_pose: missing key 'theta'"),
     ({**box_room(), "finish": [[0, 0]]}, r"finish: expected \[\[x1, y1\], \[x2, y2\]\]"),

@@ -16,12 +16,16 @@ from pico_gym.types import Pose
 
 def open_room(write_json, half: float = 20.0) -> str:
     h = half
-    return str(write_json({
-        "points": [[-h, -h], [h, -h], [h, h], [-h, h], [h - 1, -1], [h - 1, 1]],
-        "walls": [[0, 1], [1, 2], [2, 3], [3, 0]],
-        "finish": [[h - 1, -1], [h - 1, 1]],
-        "start_pose": {"x": 0.0, "y": 0.0, "theta": 0.0},
-    }))
+    return str(
+        write_json(
+            {
+                "points": [[-h, -h], [h, -h], [h, h], [-h, h], [h - 1, -1], [h - 1, 1]],
+                "walls": [[0, 1], [1, 2], [2, 3], [3, 0]],
+                "finish": [[h - 1, -1], [h - 1, 1]],
+                "start_pose": {"x": 0.0, "y": 0.0, "theta": 0.0},
+            }
+        )
+    )
 
 
 def test_integrate_twist_straight_and_arc() -> None:
@@ -81,12 +85,14 @@ def test_slip_makes_odometry_worse(write_json) -> None:
 
 
 def test_pushing_against_a_wall_makes_odometry_drift(write_json) -> None:
-    path = write_json({
-        "points": [[-1, -3], [1, -3], [1, 3], [-1, 3], [0.5, 2.0], [0.9, 2.0]],
-        "walls": [[0, 1], [1, 2], [2, 3], [3, 0]],
-        "finish": [[0.5, 2.0], [0.9, 2.0]],
-        "start_pose": {"x": 0.0, "y": 0.0, "theta": 0.0},
-    })
+    path = write_json(
+        {
+            "points": [[-1, -3], [1, -3], [1, 3], [-1, 3], [0.5, 2.0], [0.9, 2.0]],
+            "walls": [[0, 1], [1, 2], [2, 3], [3, 0]],
+            "finish": [[0.5, 2.0], [0.9, 2.0]],
+            "start_pose": {"x": 0.0, "y": 0.0, "theta": 0.0},
+        }
+    )
     env = gym.make("PicoEscape-v0", map_path=str(path), collision="continue", wheel_noise=0.0)
     env.reset(seed=0)
     for _ in range(50):  # 5 s at 0.5 m/s towards a wall 0.9 m ahead

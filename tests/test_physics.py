@@ -19,7 +19,9 @@ def wall_of_thickness(thickness: float) -> np.ndarray:
     """A long wall whose near face is the line x = 1 (zero thickness: a single segment)."""
     if thickness == 0.0:
         return np.array([[1.0, -20.0, 1.0, 20.0]])
-    return geometry.polygon_to_segments(np.array([[1.0, -20.0], [1.0 + thickness, -20.0], [1.0 + thickness, 20.0], [1.0, 20.0]]))
+    return geometry.polygon_to_segments(
+        np.array([[1.0, -20.0], [1.0 + thickness, -20.0], [1.0 + thickness, 20.0], [1.0, 20.0]])
+    )
 
 
 def drive(physics: Physics, world_direction: float, turn: float, steps: int) -> None:

@@ -9,8 +9,9 @@ challenges: the world and start of an episode, success, and the reward terms.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -56,7 +57,9 @@ class EnvConfig:
             raise ValueError(f"dt_s must be positive, got {self.dt_s}")
         substeps = self.dt_s / self.physics.substep_s
         if abs(substeps - round(substeps)) > 1e-6:
-            raise ValueError(f"dt_s={self.dt_s} must be a whole number of physics sub-steps ({self.physics.substep_s} s)")
+            raise ValueError(
+                f"dt_s={self.dt_s} must be a whole number of physics sub-steps ({self.physics.substep_s} s)"
+            )
 
     @staticmethod
     def make(config: EnvConfig | None = None, **overrides: Any) -> EnvConfig:
@@ -97,7 +100,9 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self.episode: Episode | None = None
 
     # --- the episode ---------------------------------------------------------------------
-    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         """Start an episode.
 
         Args:
@@ -183,10 +188,18 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self._last_scan = self.lrf.scan(pose, self._seen, self.np_random)
         if self.render_mode == "human":
             self.render()
-        return self._observation(), reward, terminated, truncated, self._info(outcome.reward_terms, reason, outcome.is_success)
+        return (
+            self._observation(),
+            reward,
+            terminated,
+            truncated,
+            self._info(outcome.reward_terms, reason, outcome.is_success),
+        )
 
     def _footprint_clearance(self, pose: Pose) -> float:
-        return float(geometry.footprint_clearance(pose.x, pose.y, pose.theta, self._outline, self._solid, CLEARANCE_CAP_M))
+        return float(
+            geometry.footprint_clearance(pose.x, pose.y, pose.theta, self._outline, self._solid, CLEARANCE_CAP_M)
+        )
 
     def _observation(self) -> dict[str, np.ndarray]:
         return {"lrf": self._last_scan, "odom": np.array(self.odometry.pose, dtype=np.float32)}

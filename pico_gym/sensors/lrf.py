@@ -156,7 +156,9 @@ def _cast(
 
 
 @numba.njit(cache=True)
-def _noisy(ranges: FloatArray, unit: FloatArray, noise: float, rmin: float, rmax: float, no_hit: float, out: np.ndarray) -> None:
+def _noisy(
+    ranges: FloatArray, unit: FloatArray, noise: float, rmin: float, rmax: float, no_hit: float, out: np.ndarray
+) -> None:
     """Readings from exact ranges: + U(-noise, noise) (from uniform draws `unit`), clipped."""
     for i in range(ranges.shape[0]):
         r = ranges[i]
@@ -230,7 +232,9 @@ class Lrf:
     def exact(self, pose: Pose, segments: Segments) -> FloatArray:
         """Noiseless ranges (inf for no hit). The returned array is reused by the next call."""
         cfg = self.config
-        _cast(pose[0], pose[1], pose[2], segments, self.beam_angles, self._cos, self._sin, cfg.range_max_m, self._ranges)
+        _cast(
+            pose[0], pose[1], pose[2], segments, self.beam_angles, self._cos, self._sin, cfg.range_max_m, self._ranges
+        )
         return self._ranges
 
     def scan(self, pose: Pose, segments: Segments, rng: np.random.Generator) -> np.ndarray:

@@ -103,7 +103,9 @@ class Odometry:
         # body twist -> wheels -> scaled -> body twist, as one matrix
         self._true_from_commanded = self._j_inv @ np.diag(self.factors) @ self._j
 
-    def true_twist(self, vx: float, vy: float, w: float, dt: float, rng: np.random.Generator) -> tuple[float, float, float]:
+    def true_twist(
+        self, vx: float, vy: float, w: float, dt: float, rng: np.random.Generator
+    ) -> tuple[float, float, float]:
         """The twist the ground gives the robot for a commanded twist over the next dt seconds."""
         if self._until_redraw <= 0.0:
             self._redraw(rng)

@@ -79,7 +79,9 @@ class EscapeTaskConfig:
 
 
 @numba.njit(cache=True)
-def _min_signed_distance(x: float, y: float, theta: float, outline: FloatArray, px: float, py: float, nx: float, ny: float) -> float:
+def _min_signed_distance(
+    x: float, y: float, theta: float, outline: FloatArray, px: float, py: float, nx: float, ny: float
+) -> float:
     """Smallest signed distance of the footprint's vertices past a line (point p, unit normal n)."""
     c, s = math.cos(theta), math.sin(theta)
     best = math.inf
@@ -208,10 +210,14 @@ class EscapeTask:
         p, n = self._finish_point, self._finish_normal
         return _min_signed_distance(pose.x, pose.y, pose.theta, self.robot.outline, p[0], p[1], n[0], n[1])
 
-    def evaluate(self, pose: Pose, progress_m: float, new_bumps: int, bumps: int, idle_s: float, dt_s: float) -> StepOutcome:
+    def evaluate(
+        self, pose: Pose, progress_m: float, new_bumps: int, bumps: int, idle_s: float, dt_s: float
+    ) -> StepOutcome:
         """Judge one step: its reward terms, and why the episode ends now (or None)."""
         escaped = self.past_finish(pose) > 0.0
-        return StepOutcome(self.reward_terms(progress_m, escaped, new_bumps, dt_s), self.termination(escaped, bumps, idle_s), escaped)
+        return StepOutcome(
+            self.reward_terms(progress_m, escaped, new_bumps, dt_s), self.termination(escaped, bumps, idle_s), escaped
+        )
 
     def reward_terms(self, progress_m: float, escaped: bool, new_bumps: int, dt_s: float) -> dict[str, float]:
         """The weighted reward terms of one step."""

@@ -99,7 +99,7 @@ def _bent_wall(a: FloatArray, b: FloatArray, rng: np.random.Generator, bend: flo
 def route_clearance(route: FloatArray, segments: Segments) -> float:
     """Smallest distance between a polyline route and the segments (exact)."""
     best = math.inf
-    for (ax, ay), (bx, by) in zip(route[:-1], route[1:]):
+    for (ax, ay), (bx, by) in zip(route[:-1], route[1:], strict=True):
         for x1, y1, x2, y2 in segments:
             best = min(best, geometry.segment_segment_distance(ax, ay, bx, by, x1, y1, x2, y2))
     return best
@@ -126,7 +126,11 @@ def _convex_hull(points: FloatArray) -> FloatArray:
     def half(seq: list[tuple[float, float]]) -> list[tuple[float, float]]:
         out: list[tuple[float, float]] = []
         for p in seq:
-            while len(out) >= 2 and (out[-1][0] - out[-2][0]) * (p[1] - out[-2][1]) - (out[-1][1] - out[-2][1]) * (p[0] - out[-2][0]) <= 0:
+            while (
+                len(out) >= 2
+                and (out[-1][0] - out[-2][0]) * (p[1] - out[-2][1]) - (out[-1][1] - out[-2][1]) * (p[0] - out[-2][0])
+                <= 0
+            ):
                 out.pop()
             out.append(p)
         return out
@@ -138,7 +142,7 @@ def _convex_hull(points: FloatArray) -> FloatArray:
 def generate_escape_room(
     rng: np.random.Generator,
     config: EscapeRoomConfig = EscapeRoomConfig(),
-    robot: RobotConfig = RobotConfig(),
+    robot: RobotConfig | None = None,
     max_tries: int = 100,
 ) -> EscapeRoom:
     """Draw a solvable escape room.
@@ -153,6 +157,7 @@ def generate_escape_room(
         The room. Raises RuntimeError if no solvable room was drawn in `max_tries` (a config
         that cannot be satisfied).
     """
+    robot = robot or RobotConfig()
     for _ in range(max_tries):
         room = _draw_room(rng, config)
         if room is not None and route_clearance(room.route, room.map.solid_segments()) > robot.circumradius_m:
@@ -249,7 +254,9 @@ def _draw_room(rng: np.random.Generator, cfg: EscapeRoomConfig) -> EscapeRoom | 
         map=world,
         room=np.array([place(bl), place(br), place(tr), place(tl)]),
         mouth=np.array([place(mouth_l), place(mouth_r)]),
-        corridor_walls=np.array([np.concatenate([place(mouth_l), place(end_l)]), np.concatenate([place(mouth_r), place(end_r)])]),
+        corridor_walls=np.array(
+            [np.concatenate([place(mouth_l), place(end_l)]), np.concatenate([place(mouth_r), place(end_r)])]
+        ),
         route=route,
         corridor_width_min_m=width_min,
     )
@@ -286,7 +293,7 @@ def _place_obstacles(
 def sample_start_pose(
     room: EscapeRoom,
     rng: np.random.Generator,
-    robot: RobotConfig = RobotConfig(),
+    robot: RobotConfig | None = None,
     clearance_m: float = 0.05,
     max_tries: int = 1000,
 ) -> Pose:
@@ -295,6 +302,7 @@ def sample_start_pose(
     The pose is kept only if the robot can reach the solvability route from it by a straight
     translation at its start heading, so every start is solvable.
     """
+    robot = robot or RobotConfig()
     segments = room.map.solid_segments()
     lo, hi = room.room.min(axis=0), room.room.max(axis=0)
     for _ in range(max_tries):

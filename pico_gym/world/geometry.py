@@ -82,17 +82,13 @@ def _orientation(ax: float, ay: float, bx: float, by: float, cx: float, cy: floa
 
 
 @numba.njit(cache=True)
-def segments_intersect(
-    ax: float, ay: float, bx: float, by: float, cx: float, cy: float, dx: float, dy: float
-) -> bool:
+def segments_intersect(ax: float, ay: float, bx: float, by: float, cx: float, cy: float, dx: float, dy: float) -> bool:
     """True when the closed segments a-b and c-d share at least one point."""
     d1 = _orientation(cx, cy, dx, dy, ax, ay)
     d2 = _orientation(cx, cy, dx, dy, bx, by)
     d3 = _orientation(ax, ay, bx, by, cx, cy)
     d4 = _orientation(ax, ay, bx, by, dx, dy)
-    if ((d1 > 0.0 and d2 < 0.0) or (d1 < 0.0 and d2 > 0.0)) and (
-        (d3 > 0.0 and d4 < 0.0) or (d3 < 0.0 and d4 > 0.0)
-    ):
+    if ((d1 > 0.0 and d2 < 0.0) or (d1 < 0.0 and d2 > 0.0)) and ((d3 > 0.0 and d4 < 0.0) or (d3 < 0.0 and d4 > 0.0)):
         return True
     # Collinear and touching cases.
     if d1 == 0.0 and point_segment_distance(ax, ay, cx, cy, dx, dy) == 0.0:
@@ -160,9 +156,7 @@ def polygon_clearance(polygon: FloatArray, segments: Segments, limit: float = ma
             return 0.0
         for i in range(n):
             j = (i + 1) % n
-            d = segment_segment_distance(
-                polygon[i, 0], polygon[i, 1], polygon[j, 0], polygon[j, 1], x1, y1, x2, y2
-            )
+            d = segment_segment_distance(polygon[i, 0], polygon[i, 1], polygon[j, 0], polygon[j, 1], x1, y1, x2, y2)
             if d < best:
                 best = d
                 if best == 0.0:
@@ -182,7 +176,9 @@ def point_clearance(px: float, py: float, segments: Segments) -> float:
 
 
 @numba.njit(cache=True)
-def footprint_clearance(x: float, y: float, theta: float, outline: FloatArray, segments: Segments, limit: float) -> float:
+def footprint_clearance(
+    x: float, y: float, theta: float, outline: FloatArray, segments: Segments, limit: float
+) -> float:
     """`polygon_clearance` of a robot-frame outline placed at pose (x, y, theta)."""
     c, s = math.cos(theta), math.sin(theta)
     placed = np.empty_like(outline)

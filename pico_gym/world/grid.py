@@ -22,8 +22,24 @@ from pico_gym.world.geometry import point_segment_distance
 
 # 16-connected moves (dr, dc): 8 neighbours plus the knight moves.
 _MOVES = np.array(
-    [(0, 1), (1, 0), (0, -1), (-1, 0), (1, 1), (1, -1), (-1, 1), (-1, -1),
-     (1, 2), (2, 1), (-1, 2), (-2, 1), (1, -2), (2, -1), (-1, -2), (-2, -1)],
+    [
+        (0, 1),
+        (1, 0),
+        (0, -1),
+        (-1, 0),
+        (1, 1),
+        (1, -1),
+        (-1, 1),
+        (-1, -1),
+        (1, 2),
+        (2, 1),
+        (-1, 2),
+        (-2, 1),
+        (1, -2),
+        (2, -1),
+        (-1, -2),
+        (-2, -1),
+    ],
     dtype=np.int64,
 )
 
@@ -75,11 +91,15 @@ def _clearance(x0: float, y0: float, res: float, rows: int, cols: int, segments:
 
 def clearance_grid(grid: Grid, segments: Segments, cap: float = 1.0) -> FloatArray:
     """Distance from each cell centre to the nearest segment, capped at `cap` metres."""
-    return _clearance(grid.x0, grid.y0, grid.resolution, grid.shape[0], grid.shape[1], np.ascontiguousarray(segments), cap)
+    return _clearance(
+        grid.x0, grid.y0, grid.resolution, grid.shape[0], grid.shape[1], np.ascontiguousarray(segments), cap
+    )
 
 
 @numba.njit(cache=True)
-def _dijkstra(cost: FloatArray, knight_ok: np.ndarray, seeds_r: np.ndarray, seeds_c: np.ndarray, seeds_v: FloatArray, res: float) -> FloatArray:
+def _dijkstra(
+    cost: FloatArray, knight_ok: np.ndarray, seeds_r: np.ndarray, seeds_c: np.ndarray, seeds_v: FloatArray, res: float
+) -> FloatArray:
     rows, cols = cost.shape
     dist = np.full((rows, cols), np.inf)
     heap = [(0.0, 0, 0)]

@@ -107,7 +107,7 @@ def _door_blobs(grey: np.ndarray) -> list[np.ndarray]:
     labels = np.zeros(grey.shape, dtype=np.int32)
     blobs = []
     h, w = grey.shape
-    for r0, c0 in zip(*np.nonzero(door)):
+    for r0, c0 in zip(*np.nonzero(door), strict=True):
         if labels[r0, c0]:
             continue
         label = len(blobs) + 1
@@ -167,4 +167,3 @@ def heightmap_geometry(
         low=to_world(_boundary_segments(low)),
         doors=tuple(to_world(_boundary_segments(blob)) for blob in doors),
     )
-

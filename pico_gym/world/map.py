@@ -26,8 +26,19 @@ from pico_gym.world.heightmap import COURSE_RESOLUTION_M, HeightmapGeometry, Ima
 FORMAT_VERSION = 1
 IMAGE_SUFFIXES = (".png", ".pgm", ".pbm", ".ppm", ".bmp", ".jpg", ".jpeg", ".gif", ".tif", ".tiff")
 _KNOWN_KEYS = {
-    "version", "name", "points", "walls", "cabinets", "start_area", "start", "doors", "finish",
-    "start_pose", "obstacles", "movers", "heightmap",
+    "version",
+    "name",
+    "points",
+    "walls",
+    "cabinets",
+    "start_area",
+    "start",
+    "doors",
+    "finish",
+    "start_pose",
+    "obstacles",
+    "movers",
+    "heightmap",
 }
 _MOVER_KEYS = ("length", "width", "trigger_radius", "velocity", "init_pose", "final_pose", "repeat")
 
@@ -172,11 +183,19 @@ def _pairs(value: Any, n_points: int, where: Any, key: str) -> np.ndarray:
         raise _fail(where, key, f"expected a list of [i, j] index pairs, got {type(value).__name__}")
     out = np.zeros((len(value), 2), dtype=np.int64)
     for k, pair in enumerate(value):
-        if not (isinstance(pair, list) and len(pair) == 2 and all(isinstance(i, int) and not isinstance(i, bool) for i in pair)):
+        if not (
+            isinstance(pair, list)
+            and len(pair) == 2
+            and all(isinstance(i, int) and not isinstance(i, bool) for i in pair)
+        ):
             raise _fail(where, f"{key}[{k}]", f"expected a pair of point indices [i, j], got {pair!r}")
         for i in pair:
             if not 0 <= i < n_points:
-                raise _fail(where, f"{key}[{k}]", f"point index {i} out of range (the map has {n_points} points: 0..{n_points - 1})")
+                raise _fail(
+                    where,
+                    f"{key}[{k}]",
+                    f"point index {i} out of range (the map has {n_points} points: 0..{n_points - 1})",
+                )
         out[k] = pair
     return out
 
@@ -191,7 +210,10 @@ def _cycle_order(pairs: np.ndarray) -> np.ndarray:
         neighbours.setdefault(j, []).append(i)
     open_ends = [v for v, ns in neighbours.items() if len(ns) != 2]
     if open_ends:
-        raise ValueError(f"segments do not form a closed polygon: point {open_ends[0]} is used by {len(neighbours[open_ends[0]])} segment(s), not 2")
+        raise ValueError(
+            f"segments do not form a closed polygon: point {open_ends[0]} "
+            f"is used by {len(neighbours[open_ends[0]])} segment(s), not 2"
+        )
     order = [int(pairs[0, 0])]
     prev, cur = None, int(pairs[0, 0])
     while True:
@@ -236,7 +258,9 @@ def map_from_dict(data: Any, source: Path | None = None) -> Map:
         raise _fail(where, "points", f"expected a list, got {type(points_raw).__name__}")
     if "walls" in data and "points" not in data:
         raise MapError(f"{where}: missing key 'points' (needed by 'walls')")
-    points = np.array([_xy(p, where, f"points[{i}]") for i, p in enumerate(points_raw)], dtype=np.float64).reshape(-1, 2)
+    points = np.array([_xy(p, where, f"points[{i}]") for i, p in enumerate(points_raw)], dtype=np.float64).reshape(
+        -1, 2
+    )
     n = len(points)
     walls = _pairs(data.get("walls", []), n, where, "walls")
     cabinets = _polygons(data.get("cabinets", []), n, where, "cabinets")
@@ -360,7 +384,7 @@ def map_to_dict(world: Map, relative_to: Path | None = None) -> dict[str, Any]:
     if world.finish is not None:
         data["finish"] = world.finish.tolist()
     if world.start_pose is not None:
-        data["start_pose"] = dict(zip(("x", "y", "theta"), map(float, world.start_pose)))
+        data["start_pose"] = dict(zip(("x", "y", "theta"), map(float, world.start_pose), strict=True))
     if world.obstacles:
         data["obstacles"] = [{"polygon": p.tolist()} for p in world.obstacles]
     if world.movers:
