@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-REFERENCE_MAPS = Path(__file__).resolve().parents[1].parent / "shared" / "reference-maps"
+REFERENCE_MAPS = Path(__file__).resolve().parent / "data"  # copies of the course reference maps
 
 
 def box_room(half: float = 2.0) -> dict:
