@@ -73,7 +73,7 @@ def test_rgba_transparent_pixels_are_free(tmp_path: Path) -> None:
 
     rgba = np.zeros((20, 20, 4), dtype=np.uint8)  # black but fully transparent
     rgba[5, 5] = (0, 0, 0, 255)  # one opaque black pixel
-    Image.fromarray(rgba, "RGBA").save(tmp_path / "a.png")
+    Image.fromarray(rgba).save(tmp_path / "a.png")  # (20, 20, 4) uint8 is RGBA
     assert len(load_map(tmp_path / "a.png").wall_segments) == 4
 
 
