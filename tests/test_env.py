@@ -235,6 +235,8 @@ def test_options_and_config_errors() -> None:
     env = gym.make("PicoEscape-v0", map="escape_2018")
     with pytest.raises(ValueError, match="puts the robot in a wall"):
         env.reset(options={"start_pose": (0.0, 0.0, 0.0)})
+    with pytest.raises(ValueError, match="no path to the finish"):
+        env.reset(options={"start_pose": (-3.0, 2.0, 0.0)})  # outside the room
     config = EnvConfig.make(rewards={"time": 0.5}, n_beams=32)
     assert config.task.rewards.time == 0.5 and config.task.rewards.progress == 1.0 and config.lrf.n_beams == 32
 

@@ -123,6 +123,8 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
             footprint = geometry.transform_points(start, self._outline)
             if geometry.polygon_clearance(footprint, ep.map.solid_segments()) <= 0.0:
                 raise ValueError(f"options['start_pose'] {tuple(start)} puts the robot in a wall")
+            if not math.isfinite(ep.shortest_path_length_m):
+                raise ValueError(f"options['start_pose'] {tuple(start)} has no path to the finish line")
         self._seen = ep.map.seen_segments()
         self._solid = ep.map.solid_segments()
         self.physics = Physics(self._solid, self.config.robot, self.config.physics, ep.start)

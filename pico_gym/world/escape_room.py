@@ -184,6 +184,8 @@ def _draw_room(rng: np.random.Generator, cfg: EscapeRoomConfig) -> EscapeRoom | 
         offset = top_len - corridor_w  # flush with the top-right corner
     else:
         offset = rng.uniform(0.0, top_len - corridor_w)
+    flush_left = offset == 0.0
+    flush_right = offset == top_len - corridor_w
     mouth_l = tl + offset * top_dir
     mouth_r = mouth_l + corridor_w * top_dir
 
@@ -192,9 +194,10 @@ def _draw_room(rng: np.random.Generator, cfg: EscapeRoomConfig) -> EscapeRoom | 
     tilt_l, tilt_r = rng.uniform(-cfg.corridor_tilt_rad, cfg.corridor_tilt_rad, size=2)
     dir_l = _rot(tilt_l) @ up
     dir_r = _rot(tilt_r) @ up
-    if offset == 0.0:  # flush with a corner:
-        dir_l = (tl - bl) / np.linalg.norm(tl - bl)  # the left room wall continues as the corridor wall
-    if offset == top_len - corridor_w:
+    # Flush with a corner: the room's side wall continues as the corridor wall.
+    if flush_left:
+        dir_l = (tl - bl) / np.linalg.norm(tl - bl)
+    if flush_right:
         dir_r = (tr - br) / np.linalg.norm(tr - br)
     len_l = (finish_depth + extra_l) / float(dir_l @ up)
     len_r = (finish_depth + extra_r) / float(dir_r @ up)
@@ -218,8 +221,6 @@ def _draw_room(rng: np.random.Generator, cfg: EscapeRoomConfig) -> EscapeRoom | 
 
     # The walls: one open chain from the left corridor wall's far end round the room to the right
     # corridor wall's far end; the room's three exit-less walls are bent once each.
-    flush_left = offset == 0.0
-    flush_right = offset == top_len - corridor_w
     chain = [end_l, mouth_l] + ([] if flush_left else [tl])
     chain += _bent_wall(tl, bl, rng, cfg.wall_bend_m) + _bent_wall(bl, br, rng, cfg.wall_bend_m)
     chain += _bent_wall(br, tr, rng, cfg.wall_bend_m)
