@@ -254,6 +254,21 @@ def test_every_shipped_escape_map_runs() -> None:
             assert info["clearance"] >= 0.05
 
 
+def test_random_starts_on_a_map_without_start_area_stay_inside(write_json) -> None:
+    path = write_json(
+        {
+            "points": [[0, 0], [4, 0], [4, 3], [2.6, 3], [2.6, 6.5], [1.8, 6.5], [1.8, 3], [0, 3]],
+            "walls": [[0, 1], [1, 2], [2, 3], [3, 4], [5, 6], [6, 7], [7, 0]],
+            "finish": [[1.8, 6.2], [2.6, 6.2]],
+        }
+    )
+    env = gym.make("PicoEscape-v0", map_path=str(path))
+    for seed in range(30):
+        _, info = env.reset(seed=seed)
+        x, y, _ = info["pose"]
+        assert (0 < x < 4 and 0 < y < 3) or (1.8 < x < 2.6 and y < 6.2)
+
+
 def test_module_colon_id_needs_no_import() -> None:
     code = "import gymnasium as gym; env = gym.make('pico_gym:PicoEscape-v0'); print(env.reset(seed=0)[0]['lrf'].shape)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)

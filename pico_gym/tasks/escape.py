@@ -14,6 +14,7 @@ import numba
 import numpy as np
 
 from pico_gym.robot import RobotConfig
+from pico_gym.sensors.lrf import lrf_ranges
 from pico_gym.types import FloatArray, Pose
 from pico_gym.world import geometry
 from pico_gym.world.escape_room import EscapeRoom, EscapeRoomConfig, generate_escape_room, sample_start_pose
@@ -98,13 +99,29 @@ def _start_side(world: Map) -> FloatArray:
     """A point on the side of the finish line the robot starts on.
 
     The start pose, else the centre of the start areas, else the mean of the wall points (for an
-    escape room, inside the room: the corridor is only one wall's worth of points).
+    escape room, inside the room: the corridor is only one wall's worth of points), else the
+    centre of the map's bounds.
     """
     if world.start_pose is not None:
         return np.array(world.start_pose[:2])
     if world.start_area:
         return np.mean([world.polygon(a).mean(axis=0) for a in world.start_area], axis=0)
-    return world.points[np.unique(world.walls)].mean(axis=0)
+    if len(world.walls):
+        return world.points[np.unique(world.walls)].mean(axis=0)
+    x0, y0, x1, y1 = world.bounds
+    return np.array([0.5 * (x0 + x1), 0.5 * (y0 + y1)])
+
+
+# A start drawn anywhere on a map must be enclosed: rays in at least this fraction of directions hit
+# a wall (inside an escape room only the corridor's bearing is open; outside, about half is).
+ENCLOSED_FRACTION = 0.75
+_FAN = np.linspace(-math.pi, math.pi, 72, endpoint=False)
+
+
+def is_enclosed(x: float, y: float, segments: FloatArray) -> bool:
+    """True when walls surround (x, y): a 360-degree fan of rays mostly hits something."""
+    hits = np.isfinite(lrf_ranges(Pose(x, y, 0.0), segments, _FAN, max_range=50.0))
+    return float(hits.mean()) >= ENCLOSED_FRACTION
 
 
 class StepOutcome(NamedTuple):
@@ -182,7 +199,8 @@ class EscapeTask:
         self._finish_normal = normal
 
     def _sample_fixed_start(self, world: Map, rng: np.random.Generator) -> Pose:
-        """A start pose on a fixed map without start_pose: in its start area, else anywhere free."""
+        """A start pose on a fixed map without start_pose: in its start area, else anywhere free
+        and enclosed by walls."""
         segments = world.solid_segments()
         areas = [world.polygon(a) for a in world.start_area]
         if areas:
@@ -195,6 +213,8 @@ class EscapeTask:
             x, y = rng.uniform(lo, hi)
             pose = Pose(float(x), float(y), float(rng.uniform(-math.pi, math.pi)))
             if not geometry.point_in_polygon(pose.x, pose.y, region):
+                continue
+            if not areas and not is_enclosed(pose.x, pose.y, segments):
                 continue
             footprint = geometry.transform_points(pose, self.robot.outline)
             if geometry.polygon_clearance(footprint, segments) < self.config.start_clearance_m:
