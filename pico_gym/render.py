@@ -172,7 +172,7 @@ class Renderer:
         return np.transpose(pygame.surfarray.array3d(surface), (1, 0, 2)).copy()
 
     def _draw_scan(self, surface: Any, view: View, env: PicoEnv, pose: Pose) -> None:
-        ranges = env._last_scan.astype(float)
+        ranges = env.last_scan.astype(float)
         cfg = env.config.lrf
         hit = (ranges > cfg.range_min_m) & (ranges < cfg.range_max_m)
         angles = pose.theta + env.lrf.beam_angles[hit]

@@ -133,6 +133,7 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self._map_from_odom = compose(ep.start, inverse(odom0))
         self._odom_from_map = inverse(self._map_from_odom)
         self._pose = ep.start
+        self.steps = 0
         self.sim_time_s = 0.0
         self._idle_s = 0.0
         self._path_length = 0.0
@@ -141,7 +142,7 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self._min_clearance = self._clearance
         self.trajectory = [ep.start]
         self.bump_points: list[Pose] = []
-        self._last_scan = self.lrf.scan(ep.start, self._seen, self.np_random)
+        self.last_scan = self.lrf.scan(ep.start, self._seen, self.np_random)
         info = self._info({}, None, False)
         if self.render_mode == "human":
             self.render()
@@ -160,7 +161,8 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self.odometry.advance(vx, vy, w, dt)
         previous, pose = self._pose, self.physics.pose
         self._pose = pose
-        self.sim_time_s += dt
+        self.steps += 1
+        self.sim_time_s = self.steps * dt
 
         moved = math.hypot(pose.x - previous.x, pose.y - previous.y)
         turned = abs(wrap_angle(pose.theta - previous.theta))
@@ -187,7 +189,7 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         if truncated:
             reason = "timeout"
         reward = float(sum(outcome.reward_terms.values()))
-        self._last_scan = self.lrf.scan(pose, self._seen, self.np_random)
+        self.last_scan = self.lrf.scan(pose, self._seen, self.np_random)
         if self.render_mode == "human":
             self.render()
         return (
@@ -204,7 +206,7 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         )
 
     def _observation(self) -> dict[str, np.ndarray]:
-        return {"lrf": self._last_scan, "odom": np.array(self.odometry.pose, dtype=np.float32)}
+        return {"lrf": self.last_scan, "odom": np.array(self.odometry.pose, dtype=np.float32)}
 
     def _info(self, reward_terms: dict[str, float], reason: str | None, success: bool) -> dict[str, Any]:
         assert reason is None or reason in TERMINATION_REASONS
