@@ -1,0 +1,50 @@
+"""pico-gym's agents, all behind one interface: `make_agent(name, env)`.
+
+    >>> import gymnasium as gym, pico_gym
+    >>> from agents import make_agent
+    >>> env = gym.make("PicoEscape-v0")
+    >>> agent = make_agent("classic", env)
+    >>> obs, info = env.reset(seed=0); agent.reset(obs, info)
+    >>> agent.act(obs).shape
+    (3,)
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+
+from agents.base import Agent, RobotSpec
+
+AGENTS = ("classic", "wall-follow", "random")
+
+
+def make_agent(name: str, env: gym.Env, **kwargs: Any) -> Agent:
+    """Build an agent for an env's robot.
+
+    Args:
+        name: one of AGENTS.
+        env: the env (only its robot's public spec is used).
+        **kwargs: passed to the agent (e.g. `seed` for random, `config` for classic).
+
+    Raises:
+        ValueError: for an unknown name, listing the known ones.
+    """
+    spec = RobotSpec.of(env)
+    if name == "classic":
+        from agents.classic.agent import ClassicAgent
+
+        return ClassicAgent(spec, **kwargs)
+    if name == "wall-follow":
+        from agents.baselines import WallFollowAgent
+
+        return WallFollowAgent(spec, **kwargs)
+    if name == "random":
+        from agents.baselines import RandomAgent
+
+        return RandomAgent(spec, **kwargs)
+    raise ValueError(f"unknown agent {name!r}; agents: {', '.join(AGENTS)}")
+
+
+__all__ = ["AGENTS", "Agent", "RobotSpec", "make_agent"]

@@ -1,0 +1,135 @@
+"""Local motion: a potential field under a proportional controller, plus a safety filter.
+
+Khatib, "Real-time obstacle avoidance for manipulators and mobile robots" (IJRR 1986): the
+set-point attracts (proportionally, saturated at the speed limit), obstacle points within a radius
+repel. Distances are measured to the robot's footprint, not its centre, because PICO is twice as
+wide as it is deep. Two rules the course teams learned the hard way are enforced on top:
+- never translate towards space the LRF cannot see (the 131 deg behind the robot);
+- the safety filter predicts the footprint a short horizon ahead and scales the command down
+  until no known obstacle point comes closer than a margin.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from pico_gym.types import FloatArray
+
+
+@dataclass(frozen=True)
+class MotionConfig:
+    """Gains and limits of the local controller (SI units).
+
+    Attributes:
+        max_speed: translational speed limit [m/s] (the competition's 0.5).
+        max_turn: turn-rate limit [rad/s].
+        attraction_gain: speed per metre of distance to the set-point [1/s].
+        repulsion_range: obstacle points closer than this to the footprint repel [m].
+        repulsion_gain: strength of the repulsion [m^2/s].
+        half_depth, half_width: the footprint as a rectangle around the origin [m].
+        visible_bearing: translation is allowed only towards bearings within this [rad].
+        horizon: the safety filter looks this far ahead [s].
+        margin: the safety filter keeps obstacle points at least this far from the footprint [m].
+        turn_gain: turn rate per radian of heading error [1/s].
+    """
+
+    max_speed: float = 0.5
+    max_turn: float = 1.2
+    attraction_gain: float = 1.5
+    repulsion_range: float = 0.35
+    repulsion_gain: float = 0.02
+    half_depth: float = 0.1
+    half_width: float = 0.2
+    visible_bearing: float = 1.85
+    horizon: float = 0.35
+    margin: float = 0.04
+    turn_gain: float = 2.0
+
+
+def footprint_distance(points: FloatArray, cfg: MotionConfig) -> tuple[FloatArray, FloatArray]:
+    """Distance from robot-frame points to the footprint rectangle, and unit directions away from it."""
+    ax, ay = np.abs(points[:, 0]), np.abs(points[:, 1])
+    dx = np.maximum(ax - cfg.half_depth, 0.0)
+    dy = np.maximum(ay - cfg.half_width, 0.0)
+    d = np.hypot(dx, dy)
+    away = np.column_stack([np.sign(points[:, 0]) * dx, np.sign(points[:, 1]) * dy])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        away = np.where(d[:, None] > 1e-9, away / d[:, None], 0.0)
+    return d, away
+
+
+def attract_and_repel(points: FloatArray, target: FloatArray, cfg: MotionConfig, speed: float | None = None) -> FloatArray:
+    """Translational velocity (robot frame) towards `target` (robot frame), away from `points`."""
+    vmax = cfg.max_speed if speed is None else speed
+    dist = float(np.hypot(*target))
+    v = np.zeros(2) if dist < 1e-9 else target / dist * min(vmax, cfg.attraction_gain * dist)
+    if len(points):
+        d, away = footprint_distance(points, cfg)
+        near = d < cfg.repulsion_range
+        if near.any():
+            dn = np.maximum(d[near], 0.005)
+            strength = cfg.repulsion_gain * (1.0 / dn - 1.0 / cfg.repulsion_range) / dn
+            # Push away from obstacles (the footprint moves away from each point).
+            v = v - (strength[:, None] * away[near]).sum(axis=0) / max(1.0, near.sum() / 10.0)
+    norm = float(np.hypot(*v))
+    if norm > vmax:
+        v *= vmax / norm
+    return v
+
+
+def keep_in_view(v: FloatArray, cfg: MotionConfig) -> FloatArray:
+    """Drop the part of a translation that points into the LRF's blind sector."""
+    speed = float(np.hypot(*v))
+    if speed < 1e-9:
+        return v
+    bearing = math.atan2(v[1], v[0])
+    if abs(bearing) <= cfg.visible_bearing:
+        return v
+    # Project onto the edge of the visible sector (or stop if that is backwards).
+    edge = math.copysign(cfg.visible_bearing, bearing)
+    u = np.array([math.cos(edge), math.sin(edge)])
+    along = float(v @ u)
+    return u * max(along, 0.0)
+
+
+def heading_rate(error: float, cfg: MotionConfig) -> float:
+    """Proportional turn rate for a heading error, saturated."""
+    error = (error + math.pi) % (2 * math.pi) - math.pi
+    return float(np.clip(cfg.turn_gain * error, -cfg.max_turn, cfg.max_turn))
+
+
+def _min_clearance_after(points: FloatArray, vx: float, vy: float, w: float, t: float, cfg: MotionConfig) -> float:
+    """Smallest footprint distance of the points after moving with (vx, vy, w) for t seconds."""
+    # In the robot frame the points move by the inverse motion (small-angle exact rotation).
+    a = -w * t
+    c, s = math.cos(a), math.sin(a)
+    shifted = points - np.array([vx, vy]) * t
+    moved = shifted @ np.array([[c, -s], [s, c]]).T
+    return float(footprint_distance(moved, cfg)[0].min())
+
+
+def safety_filter(points: FloatArray, command: tuple[float, float, float], cfg: MotionConfig) -> tuple[float, float, float]:
+    """Scale a command down until the predicted footprint stays `margin` away from the points.
+
+    Checks the motion at several times within the horizon. When the robot is already inside the
+    margin, only commands that do not bring it closer pass.
+    """
+    vx, vy, w = command
+    if len(points) == 0:
+        return command
+    near = points[np.hypot(points[:, 0], points[:, 1]) < 1.0]
+    if len(near) == 0:
+        return command
+    now = float(footprint_distance(near, cfg)[0].min())
+    floor = min(cfg.margin, now)
+    for scale in (1.0, 0.7, 0.45, 0.25, 0.1, 0.0):
+        cvx, cvy, cw = vx * scale, vy * scale, w * scale
+        ok = all(
+            _min_clearance_after(near, cvx, cvy, cw, cfg.horizon * f, cfg) >= floor - 1e-4 for f in (0.34, 0.67, 1.0)
+        )
+        if ok:
+            return cvx, cvy, cw
+    return 0.0, 0.0, 0.0
