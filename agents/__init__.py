@@ -1,12 +1,12 @@
 """pico-gym's agents, all behind one interface: `make_agent(name, env)`.
 
-    >>> import gymnasium as gym, pico_gym
-    >>> from agents import make_agent
-    >>> env = gym.make("PicoEscape-v0")
-    >>> agent = make_agent("classic", env)
-    >>> obs, info = env.reset(seed=0); agent.reset(obs, info)
-    >>> agent.act(obs).shape
-    (3,)
+>>> import gymnasium as gym, pico_gym
+>>> from agents import make_agent
+>>> env = gym.make("PicoEscape-v0")
+>>> agent = make_agent("classic", env)
+>>> obs, info = env.reset(seed=0); agent.reset(obs, info)
+>>> agent.act(obs).shape
+(3,)
 """
 
 from __future__ import annotations

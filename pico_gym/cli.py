@@ -15,6 +15,7 @@ import statistics
 import sys
 import time
 from collections.abc import Callable, Sequence
+from importlib.metadata import entry_points
 from pathlib import Path
 
 import numpy as np
@@ -67,6 +68,7 @@ def cmd_rollout(args: argparse.Namespace) -> int:
     from PIL import Image
 
     from pico_gym.demo import follow_the_gap
+    from pico_gym.render import save_gif
 
     want_frames = args.gif is not None or args.png is not None
     env = _make_env(args, render_mode="rgb_array" if want_frames else None)
@@ -89,10 +91,8 @@ def cmd_rollout(args: argparse.Namespace) -> int:
         last = env.render()
     env.close()
     if args.gif is not None:
-        images = [Image.fromarray(f).resize((f.shape[1] // 2, f.shape[0] // 2)) for f in frames + [last]]
-        duration_ms = int(1000 / env.metadata["render_fps"])
-        images[0].save(args.gif, save_all=True, append_images=images[1:], duration=duration_ms, loop=0)
-        print(f"wrote {args.gif} ({len(images)} frames)")
+        save_gif(frames + [last], args.gif, env.metadata["render_fps"])
+        print(f"wrote {args.gif} ({len(frames) + 1} frames)")
     if args.png is not None:
         Image.fromarray(last).save(args.png)
         print(f"wrote {args.png}")
@@ -285,6 +285,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--repeats", type=int, default=5, help="runs per figure (the median is printed)")
     p.add_argument("--seed", type=int, default=0)
     p.set_defaults(func=cmd_bench_env)
+
+    # Sub-commands of packages built on pico_gym (agents, training) register themselves here.
+    for entry in entry_points(group="pico_gym.commands"):
+        entry.load()(sub)
     return parser
 
 

@@ -96,6 +96,14 @@ def render_map_png(world: Map, path: str | os.PathLike[str], size_px: int = CANV
     pygame.image.save(surface, os.fspath(path))
 
 
+def save_gif(frames: list[np.ndarray], path: str | os.PathLike[str], fps: float, scale: float = 0.5) -> None:
+    """Write RGB frames as an animated GIF (downscaled by `scale` to keep it small)."""
+    from PIL import Image
+
+    images = [Image.fromarray(f).resize((int(f.shape[1] * scale), int(f.shape[0] * scale))) for f in frames]
+    images[0].save(path, save_all=True, append_images=images[1:], duration=int(1000 / fps), loop=0)
+
+
 def _scale_bar(surface: Any, view: View) -> None:
     pygame = _pygame()
     pygame.font.init()

@@ -74,7 +74,9 @@ class ClassicAgent(Agent):
 
     name = "classic"
 
-    def __init__(self, spec: RobotSpec, config: ClassicConfig | None = None, motion: MotionConfig | None = None) -> None:
+    def __init__(
+        self, spec: RobotSpec, config: ClassicConfig | None = None, motion: MotionConfig | None = None
+    ) -> None:
         super().__init__(spec)
         self.config = config or ClassicConfig()
         self.motion = motion or MotionConfig(
@@ -254,7 +256,11 @@ class ClassicAgent(Agent):
         target = self._lookahead(here, front)
         self.target = target
         v = attract_and_repel(obstacles, self._to_robot(target), self.motion)
-        w = heading_rate(heading - pose.theta, self.motion) if self._can_rotate(obstacles) or heading_error < 0.3 else 0.0
+        w = (
+            heading_rate(heading - pose.theta, self.motion)
+            if self._can_rotate(obstacles) or heading_error < 0.3
+            else 0.0
+        )
         return float(v[0]), float(v[1]), w
 
     def _plan(self, here: FloatArray, goal: FloatArray) -> None:

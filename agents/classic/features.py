@@ -41,6 +41,10 @@ BEYOND_FRACTION = 0.6
 MIN_BEAMS_THROUGH = 3
 # Lines shorter than this do not define a wall for exit detection [m].
 MIN_WALL_M = 0.25
+# A mouth lies in a room wall: a line at least this long must run up to the gap [m] (on either
+# side; for an exit flush with a corner, on the side away from the corner). A box's face
+# extended to a wall is not a mouth: the challenge's boxes are at most 0.5 m.
+ROOM_WALL_M = 0.6
 
 
 @dataclass(frozen=True)
@@ -135,7 +139,9 @@ def find_open_ends(scan: Scan, raw_ranges: np.ndarray, range_max: float, jump_m:
     return ends
 
 
-def _beams_beyond(a: FloatArray, b: FloatArray, raw_ranges: np.ndarray, beam_angles: FloatArray, range_max: float) -> tuple[int, float]:
+def _beams_beyond(
+    a: FloatArray, b: FloatArray, raw_ranges: np.ndarray, beam_angles: FloatArray, range_max: float
+) -> tuple[int, float]:
     """How many beams pass between a and b, and the fraction that reaches BEYOND_M past the gap."""
     ta, tb = math.atan2(a[1], a[0]), math.atan2(b[1], b[0])
     lo, hi = min(ta, tb), max(ta, tb)
@@ -177,7 +183,7 @@ def find_exits(
         d = _direction(seg)
         normal = np.array([-d[1], d[0]])
         for end_point, outward_dir in ((seg[:2], -d), (seg[2:], d)):
-            candidates = []
+            candidates: list[tuple[FloatArray, float]] = []
             for j, other in enumerate(segs):
                 # (the far side may be a short piece: the rest of that wall can be out of view)
                 if j == k:
@@ -191,7 +197,7 @@ def find_exits(
                     along = [float((p - end_point) @ outward_dir) for p in (other[:2], other[2:])]
                     near = min(along)
                     if near > 0:
-                        candidates.append(end_point + near * outward_dir)
+                        candidates.append((end_point + near * outward_dir, float(lengths[j])))
                 else:
                     # A wall crossing the line beyond the gap (exit flush with a corner).
                     c = _line_intersection(end_point, outward_dir, other[:2], e)
@@ -201,12 +207,15 @@ def find_exits(
                     t = float((c - other[:2]) @ e)
                     length = float(np.linalg.norm(other[2:] - other[:2]))
                     if -0.15 <= t <= length + 0.15:
-                        candidates.append(c)
+                        # flush with a corner: the wall with the gap is this line itself
+                        candidates.append((c, 0.0))
             if not candidates:
                 continue
-            far_point = min(candidates, key=lambda p: float(np.linalg.norm(p - end_point)))
+            far_point, far_length = min(candidates, key=lambda pc: float(np.linalg.norm(pc[0] - end_point)))
             width = float(np.linalg.norm(far_point - end_point))
             if not EXIT_WIDTH_M[0] <= width <= EXIT_WIDTH_M[1]:
+                continue
+            if max(lengths[k], far_length) < ROOM_WALL_M:
                 continue
             n_through, fraction = _beams_beyond(end_point, far_point, raw_ranges, beam_angles, range_max)
             if n_through < MIN_BEAMS_THROUGH or fraction < BEYOND_FRACTION:

@@ -61,7 +61,9 @@ def footprint_distance(points: FloatArray, cfg: MotionConfig) -> tuple[FloatArra
     return d, away
 
 
-def attract_and_repel(points: FloatArray, target: FloatArray, cfg: MotionConfig, speed: float | None = None) -> FloatArray:
+def attract_and_repel(
+    points: FloatArray, target: FloatArray, cfg: MotionConfig, speed: float | None = None
+) -> FloatArray:
     """Translational velocity (robot frame) towards `target` (robot frame), away from `points`."""
     vmax = cfg.max_speed if speed is None else speed
     dist = float(np.hypot(*target))
@@ -111,7 +113,9 @@ def _min_clearance_after(points: FloatArray, vx: float, vy: float, w: float, t: 
     return float(footprint_distance(moved, cfg)[0].min())
 
 
-def safety_filter(points: FloatArray, command: tuple[float, float, float], cfg: MotionConfig) -> tuple[float, float, float]:
+def safety_filter(
+    points: FloatArray, command: tuple[float, float, float], cfg: MotionConfig
+) -> tuple[float, float, float]:
     """Scale a command down until the predicted footprint stays `margin` away from the points.
 
     Checks the motion at several times within the horizon. When the robot is already inside the

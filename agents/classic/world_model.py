@@ -49,7 +49,9 @@ class ExitTrack:
 
 
 @numba.njit(cache=True)
-def _icp_pairs(points: FloatArray, grid: np.ndarray, x0: float, y0: float, cell: float, since: int) -> tuple[FloatArray, FloatArray]:
+def _icp_pairs(
+    points: FloatArray, grid: np.ndarray, x0: float, y0: float, cell: float, since: int
+) -> tuple[FloatArray, FloatArray]:
     """For each point, the nearest recently hit cell centre in its 5x5 neighbourhood."""
     rows, cols = grid.shape
     src = np.empty_like(points)

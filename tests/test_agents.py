@@ -1,0 +1,169 @@
+"""The agent interface, the classic agent on the env (CI rollout), and the run/bench commands."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import pico_gym  # noqa: F401
+from agents import AGENTS, make_agent
+from agents.base import RobotSpec
+from agents.classic.features import extract_features
+from agents.classic.split_merge import preprocess, split_and_merge
+from agents.evaluation import run_episode
+from pico_gym.cli import main
+from pico_gym.overlay import Overlay
+from pico_gym.world.geometry import inverse, transform_points
+
+
+@pytest.mark.parametrize("name", AGENTS)
+def test_every_agent_acts_within_the_action_space(name: str) -> None:
+    env = gym.make("PicoEscape-v0")
+    agent = make_agent(name, env)
+    obs, info = env.reset(seed=0)
+    agent.reset(obs, info)
+    for _ in range(20):
+        action = agent.act(obs)
+        assert env.action_space.contains(action)
+        obs, *_ = env.step(action)
+
+
+def test_unknown_agent_is_a_clear_error() -> None:
+    with pytest.raises(ValueError, match="unknown agent 'magic'; agents: classic"):
+        make_agent("magic", gym.make("PicoEscape-v0"))
+
+
+def test_agents_get_only_the_robot_spec() -> None:
+    env = gym.make("PicoEscape-v0")
+    agent = make_agent("classic", env)
+    assert isinstance(agent.spec, RobotSpec)
+    assert not any(isinstance(v, gym.Env) for v in vars(agent).values())
+
+
+def test_classic_escapes_20_fixed_seeds_without_bumping() -> None:
+    env = gym.make("PicoEscape-v0")
+    agent = make_agent("classic", env)
+    records = [run_episode(env, agent, seed, "classic") for seed in range(500, 520)]
+    failed = [(r.seed, r.termination_reason, r.bumps) for r in records if not r.success or r.bumps]
+    assert failed == []
+    assert all(r.time_s < 120 for r in records)
+
+
+@pytest.mark.parametrize(
+    "name", ["escape_2018", "escape_2019", "escape_2020_corner", "escape_small", "escape_student_2019"]
+)
+def test_classic_escapes_the_shipped_maps(name: str) -> None:
+    env = gym.make("PicoEscape-v0", map=name)
+    agent = make_agent("classic", env)
+    records = [run_episode(env, agent, seed, "classic") for seed in range(3)]
+    assert [(r.success, r.bumps) for r in records] == [(True, 0)] * 3
+
+
+def features_at(map_name: str, pose: tuple[float, float, float]):
+    env = gym.make("PicoEscape-v0", map=map_name)
+    obs, _ = env.reset(seed=0, options={"start_pose": pose})
+    angles = env.unwrapped.lrf.beam_angles
+    scan = preprocess(obs["lrf"], angles, 0.01, 10.0)
+    lines = split_and_merge(scan)
+    return extract_features(scan, lines, obs["lrf"], angles, 10.0), env.unwrapped
+
+
+@pytest.mark.parametrize(
+    "map_name,pose,mouth",
+    [
+        ("escape_2018", (2.0, 2.0, 1.4), [[1.5, 5.0], [2.5, 5.0]]),  # mid-wall exit
+        ("escape_2020_corner", (1.5, 2.0, 2.0), [[0.0, 4.2], [0.6, 4.2]]),  # flush with a corner
+        ("escape_2019", (3.5, 1.5, 0.3), [[5.6, 2.55], [5.58, 3.1]]),  # narrow, crooked
+    ],
+)
+def test_exit_detection_on_env_scans(map_name: str, pose: tuple, mouth: list) -> None:
+    features, env = features_at(map_name, pose)
+    mouth_robot = transform_points(inverse(env.pose), np.array(mouth, dtype=float))
+    found = [e for e in features.exits if np.linalg.norm(e.centre - mouth_robot.mean(axis=0)) < 0.1]
+    assert len(found) == 1 and len(features.exits) == 1
+    assert found[0].width == pytest.approx(np.linalg.norm(mouth_robot[1] - mouth_robot[0]), abs=0.06)
+
+
+def test_classic_overlay_draws_its_view() -> None:
+    env = gym.make("PicoEscape-v0", render_mode="rgb_array")
+    agent = make_agent("classic", env)
+    obs, info = env.reset(seed=1)
+    agent.reset(obs, info)
+    for _ in range(15):
+        obs, *_ = env.step(agent.act(obs))
+    overlay = agent.overlay()
+    assert isinstance(overlay, Overlay) and len(overlay.segments) > 0 and overlay.text.startswith("classic")
+    env.unwrapped.set_overlay(agent.overlay)
+    assert env.render().shape == (640, 640, 3)
+
+
+def test_bench_json_has_the_documented_fields(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "bench.json"
+    assert (
+        main(
+            [
+                "bench",
+                "--agent",
+                "classic",
+                "--episodes",
+                "3",
+                "--seed",
+                "7",
+                "--workers",
+                "1",
+                "--quiet",
+                "--json",
+                str(out),
+            ]
+        )
+        == 0
+    )
+    text = capsys.readouterr().out
+    for key in (
+        "success rate",
+        "bump rate",
+        "idle / timeout",
+        "escape time median / p90",
+        "SPL",
+        "SCT",
+        "mean min clearance",
+        "act() compute",
+    ):
+        assert key in text
+    data = json.loads(out.read_text())
+    assert [e["seed"] for e in data["episodes"]] == [7, 8, 9]
+    for e in data["episodes"]:
+        assert {
+            "seed",
+            "map",
+            "success",
+            "termination_reason",
+            "time_s",
+            "bumps",
+            "path_length",
+            "shortest_path_length",
+            "min_clearance",
+        } <= set(e)
+    assert {
+        "success_rate",
+        "bump_rate",
+        "idle",
+        "timeout",
+        "escape_time_median_s",
+        "escape_time_p90_s",
+        "spl",
+        "sct_median",
+    } <= set(data["summary"])
+    assert 0.0 <= data["summary"]["success_rate"] <= 1.0 and not math.isnan(data["summary"]["spl"])
+
+
+def test_run_prints_the_outcome_and_writes_a_gif(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    gif = tmp_path / "run.gif"
+    assert main(["run", "--agent", "classic", "--map", "escape_small", "--gif", str(gif)]) == 0
+    out = capsys.readouterr().out
+    assert "outcome: escaped" in out and "shortest path" in out and gif.is_file()
