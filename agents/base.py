@@ -45,8 +45,11 @@ class Agent(ABC):
     def __init__(self, spec: RobotSpec) -> None:
         self.spec = spec
 
-    def reset(self, obs: dict[str, np.ndarray], info: dict[str, Any] | None = None) -> None:
-        """Start an episode from its first observation (`info` is for logging only)."""
+    def reset(self, obs: dict[str, np.ndarray], info: dict[str, Any] | None = None) -> None:  # noqa: B027
+        """Start an episode from its first observation (`info` is for logging only).
+
+        Stateless agents need not override it.
+        """
 
     @abstractmethod
     def act(self, obs: dict[str, np.ndarray]) -> np.ndarray:

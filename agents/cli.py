@@ -96,9 +96,8 @@ def cmd_bench(args: argparse.Namespace) -> int:
         records = run_episodes(args.agent, seeds, options, workers=args.workers, progress=bar.update)
     summary = summarize(records)
     print(format_summary(args.agent, summary))
-    print(
-        f"  env options              {options or '(defaults: generated rooms)'}; seeds {args.seed}..{args.seed + args.episodes - 1}"
-    )
+    last = args.seed + args.episodes - 1
+    print(f"  env options              {options or '(defaults: generated rooms)'}; seeds {args.seed}..{last}")
     failures = [r for r in records if not r.success]
     if failures:
         shown = ", ".join(f"{r.seed}:{r.termination_reason}" for r in failures[:20])

@@ -55,6 +55,7 @@ class ClassicConfig:
         stuck_time: no progress for this long means stuck [s].
         memory_steps: hits older than this many steps are forgotten for safety and planning.
         rotate_clearance: turn in place only when nothing known is closer to the origin [m].
+        max_still_time: standing still this long triggers BACKOFF [s].
         align_scans: correct odometry by aligning each scan to the hits seen before.
     """
 
@@ -66,6 +67,7 @@ class ClassicConfig:
     stuck_time: float = 6.0
     memory_steps: int = 600
     rotate_clearance: float = 0.27
+    max_still_time: float = 3.0
     align_scans: bool = True
 
 
@@ -90,9 +92,11 @@ class ClassicAgent(Agent):
         self.model = WorldModel()
         self.state = "START"
         self.state_steps = 0
+        self.still_steps = 0
         self.turned = 0.0
         self.explores = 0
         self.side = 0.0  # +1: the corridor runs along the robot's +y; -1: along -y
+        self.chosen: ExitTrack | None = None
         self.path: list[FloatArray] = []
         self.target: FloatArray | None = None  # model frame
         self.goal: FloatArray | None = None
@@ -135,7 +139,10 @@ class ClassicAgent(Agent):
         self.state_steps += 1
 
         near = scan.points[np.hypot(scan.points[:, 0], scan.points[:, 1]) < 1.2]
+        # Remembered hits fill in the blind sector behind the robot; where the LRF looks now,
+        # the current scan is the truth (old hits there may be stale after odometry drift).
         memory = model.hits_near(pose, 1.0, self.config.memory_steps)
+        memory = memory[np.abs(np.arctan2(memory[:, 1], memory[:, 0])) > lrf.angle_max_rad - 0.05]
         obstacles = np.vstack([near, memory]) if len(memory) else near
 
         handler = getattr(self, f"_{self.state.lower()}")
@@ -143,6 +150,12 @@ class ClassicAgent(Agent):
         v = keep_in_view(np.array([vx, vy]), self.motion)
         vx, vy, w = safety_filter(obstacles, (float(v[0]), float(v[1]), float(w)), self.motion)
         self.turned += abs(w) * self.spec.dt_s
+        # Never freeze: the challenge ends a run after 30 s without sensible movement.
+        moving = math.hypot(vx, vy) > 0.02 or abs(w) > 0.05
+        self.still_steps = 0 if moving else self.still_steps + 1
+        if self.still_steps * self.spec.dt_s > self.config.max_still_time and self.state != "BACKOFF":
+            self.still_steps = 0
+            self._go("BACKOFF")
         return np.array([vx, vy, w], dtype=np.float32)
 
     # --- helpers ---------------------------------------------------------------------------
@@ -229,7 +242,10 @@ class ClassicAgent(Agent):
         return float(wrap_angle(along - self.side * math.pi / 2))
 
     def _approach(self, pose: Pose, obstacles: FloatArray) -> tuple[float, float, float]:
-        track = self.model.best_exit()
+        # Stick to the exit chosen first (switching between two sightings of one mouth zigzags).
+        if self.chosen is None or self.chosen not in self.model.tracks:
+            self.chosen = self.model.best_exit()
+        track = self.chosen
         if track is None:
             self._go("LOOK")
             return 0.0, 0.0, 0.0
@@ -241,13 +257,17 @@ class ClassicAgent(Agent):
         lateral = float(rel @ np.array([-direction[1], direction[0]]))
         heading_error = abs(wrap_angle(heading - pose.theta))
         # In line with the mouth and turned: go through.
-        if along > -self.config.front_distance - 0.15 and abs(lateral) < 0.12 and heading_error < 0.1:
+        lined_up = along > -self.config.front_distance - 0.15 and abs(lateral) < 0.12 and heading_error < 0.1
+        inside = along > 0.05 and abs(lateral) < 0.5 * track.width
+        if lined_up or inside:
             self.corridor_width = track.width
             self.corridor_step = self.model.step
             self._go("CORRIDOR")
             return 0.0, 0.0, 0.0
         distance = float(np.linalg.norm(front - here))
         if self._check_progress(distance):
+            # Could not get in front of it: forget this exit and look again.
+            self.model.tracks = [t for t in self.model.tracks if t is not track]
             self._go("BACKOFF")
             return 0.0, 0.0, 0.0
         self.goal = front
@@ -309,12 +329,13 @@ class ClassicAgent(Agent):
         direction /= np.linalg.norm(direction)
         normal = np.array([direction[1], -direction[0]]) * self.side  # points to +x side
         offsets = mid[wall] @ normal
-        front = offsets[offsets > 0]
-        back = offsets[offsets < 0]
+        lengths = length[wall]
+        # On each side, the longest wall line is the corridor's wall.
+        front = offsets > 0
         return (
             direction,
-            float(front.min()) if len(front) else None,
-            float(-back.max()) if len(back) else None,
+            float(offsets[front][np.argmax(lengths[front])]) if front.any() else None,
+            float(-offsets[~front][np.argmax(lengths[~front])]) if (~front).any() else None,
         )
 
     def _corridor(self, pose: Pose, obstacles: FloatArray) -> tuple[float, float, float]:
@@ -374,6 +395,7 @@ class ClassicAgent(Agent):
     def _backoff(self, pose: Pose, obstacles: FloatArray) -> tuple[float, float, float]:
         if self.state_steps > 12:
             self.side = 0.0
+            self.chosen = None
             self._go("LOOK")
             return 0.0, 0.0, 0.0
         return self._away(obstacles)

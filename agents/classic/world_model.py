@@ -29,7 +29,7 @@ ASSOCIATION_M = 0.6
 TRACK_GAIN = 0.5
 
 
-@dataclass
+@dataclass(eq=False)
 class ExitTrack:
     """A corridor mouth in the model frame, refined by every scan that sees it."""
 
@@ -38,6 +38,7 @@ class ExitTrack:
     outward: FloatArray
     hits: int = 1
     last_seen: int = 0
+    misses: int = 0
 
     @property
     def centre(self) -> FloatArray:
@@ -183,10 +184,17 @@ class WorldModel:
         """Model-frame centre of a cell."""
         return self.origin + (np.array([cell[1], cell[0]]) + 0.5) * CELL_M
 
-    def update_exits(self, pose: Pose, exits: list[Exit]) -> None:
-        """Associate a scan's exits (robot frame) with the tracks and correct them."""
+    def update_exits(self, pose: Pose, exits: list[Exit], fov_rad: float = 1.9, view_m: float = 4.0) -> None:
+        """Associate a scan's exits (robot frame) with the tracks and correct them.
+
+        A track whose mouth lies well in view (both ends within `fov_rad` of the heading, between
+        1 m and `view_m` away, where detection is reliable) but is not detected gets a miss; a
+        track with more than twice as many misses as hits is dropped, so a false exit seen a few
+        times does not live on.
+        """
         c, s = math.cos(pose.theta), math.sin(pose.theta)
         rot = np.array([[c, -s], [s, c]])
+        matched: set[int] = set()
         for ex in exits:
             a = transform_points(pose, ex.a[None])[0]
             b = transform_points(pose, ex.b[None])[0]
@@ -199,7 +207,9 @@ class WorldModel:
                     break
             if match is None:
                 self.tracks.append(ExitTrack(a, b, outward, 1, self.step))
+                matched.add(id(self.tracks[-1]))
                 continue
+            matched.add(id(match))
             # Keep the end points' order consistent before averaging.
             if np.linalg.norm(match.a - a) > np.linalg.norm(match.a - b):
                 a, b = b, a
@@ -210,6 +220,18 @@ class WorldModel:
             match.outward = o / np.linalg.norm(o)
             match.hits += 1
             match.last_seen = self.step
+        here = np.array([pose.x, pose.y])
+        for track in self.tracks:
+            if id(track) in matched:
+                continue
+            in_view = True
+            for p in (track.a, track.b):
+                d = p - here
+                bearing = (math.atan2(d[1], d[0]) - pose.theta + math.pi) % (2 * math.pi) - math.pi
+                in_view &= abs(bearing) < fov_rad and 1.0 < float(np.hypot(*d)) < view_m
+            if in_view:
+                track.misses += 1
+        self.tracks = [t for t in self.tracks if t.misses <= 2 * t.hits]
 
     def best_exit(self, min_hits: int = 2) -> ExitTrack | None:
         """The most often seen exit with at least `min_hits` sightings."""
