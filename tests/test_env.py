@@ -254,6 +254,14 @@ def test_every_shipped_escape_map_runs() -> None:
             assert info["clearance"] >= 0.05
 
 
+def test_sample_start_overrides_a_fixed_start_pose() -> None:
+    fixed = gym.make("PicoEscape-v0", map="escape_small")
+    sampled = gym.make("PicoEscape-v0", map="escape_small", sample_start=True)
+    assert fixed.reset(seed=1)[1]["pose"] == pytest.approx([1.0, 1.0, 0.3])
+    poses = [sampled.reset(seed=s)[1]["pose"] for s in range(5)]
+    assert len({tuple(np.round(p, 6)) for p in poses}) == 5
+
+
 def test_random_starts_on_a_map_without_start_area_stay_inside(write_json) -> None:
     path = write_json(
         {

@@ -57,6 +57,8 @@ class EscapeTaskConfig:
         idle_turn_rate_radps: true turn rate below which the robot is not turning [rad/s].
         time_limit_s: the episode is truncated at this simulated time [s].
         start_clearance_m: minimum distance between the start footprint and any wall [m].
+        sample_start: draw the start pose (from the start area, else anywhere enclosed) even on
+            a map that fixes one, e.g. to benchmark many starts on one map.
         rewards: weights of the reward terms.
         room: ranges of the escape-room generator.
         geodesic_resolution_m: cell size of the geodesic distance field [m].
@@ -68,6 +70,7 @@ class EscapeTaskConfig:
     idle_turn_rate_radps: float = 0.05
     time_limit_s: float = TIME_LIMIT_S
     start_clearance_m: float = 0.05
+    sample_start: bool = False
     rewards: RewardWeights = field(default_factory=RewardWeights)
     room: EscapeRoomConfig = field(default_factory=EscapeRoomConfig)
     geodesic_resolution_m: float = 0.05
@@ -171,7 +174,8 @@ class EscapeTask:
             world = self.fixed_map
             self._set_finish(world, _start_side(world))
             if start is None:
-                start = world.start_pose if world.start_pose is not None else self._sample_fixed_start(world, rng)
+                fixed = world.start_pose is not None and not self.config.sample_start
+                start = world.start_pose if fixed else self._sample_fixed_start(world, rng)
         field = self._field(world)
         # The oracle path: the origin's geodesic to the line, plus the footprint's rear half so
         # the whole robot is across.
