@@ -89,3 +89,11 @@ def test_safety_filter_stops_short_of_a_wall() -> None:
     assert safety_filter(wall, (0.0, 0.5, 0.0), CFG) == pytest.approx((0.0, 0.5, 0.0))
     # turning in place would swing a corner into the wall: slowed down
     assert abs(safety_filter(wall, (0.0, 0.0, 1.2), CFG)[2]) < 1.2
+
+
+def test_a_point_already_too_close_blocks_only_motion_towards_it() -> None:
+    wall_ahead = np.column_stack([np.full(50, 0.2), np.linspace(-1, 1, 50)])
+    stale = np.array([[-0.05, 0.1]])  # inside the footprint (e.g. a stale remembered hit)
+    points = np.vstack([wall_ahead, stale])
+    vx, _, _ = safety_filter(points, (0.5, 0.0, 0.0), CFG)
+    assert vx * CFG.horizon <= 0.1 - CFG.margin + 1e-6  # the wall ahead still counts

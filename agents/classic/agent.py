@@ -31,6 +31,7 @@ from agents.classic.features import Features, extract_features
 from agents.classic.potential_field import (
     MotionConfig,
     attract_and_repel,
+    footprint_distance,
     heading_rate,
     keep_in_view,
     safety_filter,
@@ -65,7 +66,7 @@ class ClassicConfig:
     lookahead: float = 0.5
     look_turn: float = 2.9
     stuck_time: float = 6.0
-    memory_steps: int = 600
+    memory_steps: int = 150
     rotate_clearance: float = 0.27
     max_still_time: float = 3.0
     align_scans: bool = True
@@ -81,8 +82,14 @@ class ClassicAgent(Agent):
     ) -> None:
         super().__init__(spec)
         self.config = config or ClassicConfig()
+        # The safety margin and the slack for points already inside it grow with the LRF's
+        # noise: a wall 5 cm away can read as 3 cm with +-2 cm noise.
+        noise = spec.lrf.noise_m
         self.motion = motion or MotionConfig(
-            max_speed=spec.robot.max_speed_mps, max_turn=spec.robot.max_turn_rate_radps
+            max_speed=spec.robot.max_speed_mps,
+            max_turn=spec.robot.max_turn_rate_radps,
+            margin=0.03 + noise,
+            slack=noise,
         )
         self.angles = spec.beam_angles
         self.reset({"lrf": np.zeros(spec.lrf.n_beams), "odom": np.zeros(3)})
@@ -165,9 +172,12 @@ class ClassicAgent(Agent):
         return np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1]])
 
     def _can_rotate(self, obstacles: FloatArray) -> bool:
+        """True when turning in place sweeps no known obstacle (points inside the footprint are
+        stale memory, not obstacles)."""
         if len(obstacles) == 0:
             return True
-        return float(np.hypot(obstacles[:, 0], obstacles[:, 1]).min()) > self.config.rotate_clearance
+        real = obstacles[footprint_distance(obstacles, self.motion)[0] > 0.0]
+        return len(real) == 0 or float(np.hypot(real[:, 0], real[:, 1]).min()) > self.config.rotate_clearance
 
     def _away(self, obstacles: FloatArray) -> tuple[float, float, float]:
         """Translate away from the nearest obstacles (no turning)."""

@@ -33,6 +33,7 @@ class MotionConfig:
         visible_bearing: translation is allowed only towards bearings within this [rad].
         horizon: the safety filter looks this far ahead [s].
         margin: the safety filter keeps obstacle points at least this far from the footprint [m].
+        slack: a point already inside the margin may come this much closer [m] (LRF noise).
         turn_gain: turn rate per radian of heading error [1/s].
     """
 
@@ -46,6 +47,7 @@ class MotionConfig:
     visible_bearing: float = 1.85
     horizon: float = 0.35
     margin: float = 0.04
+    slack: float = 0.005
     turn_gain: float = 2.0
 
 
@@ -103,14 +105,14 @@ def heading_rate(error: float, cfg: MotionConfig) -> float:
     return float(np.clip(cfg.turn_gain * error, -cfg.max_turn, cfg.max_turn))
 
 
-def _min_clearance_after(points: FloatArray, vx: float, vy: float, w: float, t: float, cfg: MotionConfig) -> float:
-    """Smallest footprint distance of the points after moving with (vx, vy, w) for t seconds."""
-    # In the robot frame the points move by the inverse motion (small-angle exact rotation).
+def _distances_after(points: FloatArray, vx: float, vy: float, w: float, t: float, cfg: MotionConfig) -> FloatArray:
+    """Footprint distance of each point after moving with (vx, vy, w) for t seconds."""
+    # In the robot frame the points move by the inverse motion.
     a = -w * t
     c, s = math.cos(a), math.sin(a)
     shifted = points - np.array([vx, vy]) * t
     moved = shifted @ np.array([[c, -s], [s, c]]).T
-    return float(footprint_distance(moved, cfg)[0].min())
+    return footprint_distance(moved, cfg)[0]
 
 
 def safety_filter(
@@ -118,8 +120,10 @@ def safety_filter(
 ) -> tuple[float, float, float]:
     """Scale a command down until the predicted footprint stays `margin` away from the points.
 
-    Checks the motion at several times within the horizon. When the robot is already inside the
-    margin, only commands that do not bring it closer pass.
+    Checks the motion at several times within the horizon. Each point must stay outside the
+    margin or, if it is already inside, come no more than `slack` closer (so a point that is
+    already too close, perhaps a noisy one, blocks only the motions towards it). Points inside
+    the footprint cannot be real obstacles (stale memory after drift) and are ignored.
     """
     vx, vy, w = command
     if len(points) == 0:
@@ -127,12 +131,15 @@ def safety_filter(
     near = points[np.hypot(points[:, 0], points[:, 1]) < 1.0]
     if len(near) == 0:
         return command
-    now = float(footprint_distance(near, cfg)[0].min())
-    floor = min(cfg.margin, now)
+    d_now = footprint_distance(near, cfg)[0]
+    near, d_now = near[d_now > 0.0], d_now[d_now > 0.0]
+    if len(near) == 0:
+        return command
+    floor = np.minimum(cfg.margin, d_now - cfg.slack)
     for scale in (1.0, 0.7, 0.45, 0.25, 0.1, 0.0):
         cvx, cvy, cw = vx * scale, vy * scale, w * scale
         ok = all(
-            _min_clearance_after(near, cvx, cvy, cw, cfg.horizon * f, cfg) >= floor - 1e-4 for f in (0.34, 0.67, 1.0)
+            bool(np.all(_distances_after(near, cvx, cvy, cw, cfg.horizon * f, cfg) >= floor)) for f in (0.34, 0.67, 1.0)
         )
         if ok:
             return cvx, cvy, cw
