@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import numpy as np
 
@@ -21,9 +20,6 @@ class RandomAgent(Agent):
         super().__init__(spec)
         self.rng = np.random.default_rng(seed)
         self.high = spec.robot.action_high
-
-    def reset(self, obs: dict[str, np.ndarray], info: dict[str, Any] | None = None) -> None:
-        pass
 
     def act(self, obs: dict[str, np.ndarray]) -> np.ndarray:
         return (self.rng.uniform(-1.0, 1.0, 3) * self.high).astype(np.float32)

@@ -101,7 +101,6 @@ class ClassicAgent(Agent):
         self.state_steps = 0
         self.still_steps = 0
         self.turned = 0.0
-        self.explores = 0
         self.side = 0.0  # +1: the corridor runs along the robot's +y; -1: along -y
         self.chosen: ExitTrack | None = None
         self.path: list[FloatArray] = []
@@ -394,7 +393,6 @@ class ClassicAgent(Agent):
         distance = float(np.linalg.norm(self.goal - here))
         if distance < 0.15 or self._check_progress(distance) or self.state_steps > 80:
             self.goal = None
-            self.explores += 1
             self._go("LOOK")
             return 0.0, 0.0, 0.0
         self.target = self.goal

@@ -37,7 +37,6 @@ class ExitTrack:
     b: FloatArray
     outward: FloatArray
     hits: int = 1
-    last_seen: int = 0
     misses: int = 0
 
     @property
@@ -206,7 +205,7 @@ class WorldModel:
                     match = track
                     break
             if match is None:
-                self.tracks.append(ExitTrack(a, b, outward, 1, self.step))
+                self.tracks.append(ExitTrack(a, b, outward, hits=1))
                 matched.add(id(self.tracks[-1]))
                 continue
             matched.add(id(match))
@@ -219,7 +218,6 @@ class WorldModel:
             o = (1 - g) * match.outward + g * outward
             match.outward = o / np.linalg.norm(o)
             match.hits += 1
-            match.last_seen = self.step
         here = np.array([pose.x, pose.y])
         for track in self.tracks:
             if id(track) in matched:
