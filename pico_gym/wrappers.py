@@ -1,0 +1,229 @@
+"""Gymnasium wrappers for learning on pico-gym envs.
+
+Each step of the usual pipeline is a standard wrapper, usable on its own:
+
+- `MinPoolLrf`: the 1000-beam LRF down-sampled to `n_sectors` sectors by taking each sector's
+  minimum (conservative: an obstacle seen by one beam is seen by its sector), normalised to [0, 1].
+- `OdomVelocity`: the odometry pose (whose origin means nothing to a policy) replaced by the
+  body-frame velocity odometry measured over the last step, normalised by the robot's limits.
+- gymnasium's `FlattenObservation`, `FrameStackObservation` and `RescaleAction` (actions in
+  [-1, 1], as stable-baselines3 advises) do the rest.
+
+`PicoLearningWrapper` is that whole pipeline in one wrapper (one line in an rl-zoo3 config), built
+on `LearningEncoder`, which turns raw observations into the policy's input outside any env too: the
+PPO agent uses it to act on an env's raw observations exactly as in training.
+
+>>> import gymnasium as gym, pico_gym
+>>> from pico_gym.wrappers import PicoLearningWrapper
+>>> env = PicoLearningWrapper(gym.make("PicoEscape-v0"), n_sectors=64, frame_stack=2)
+>>> env.observation_space.shape, env.action_space.low.tolist()
+((134,), [-1.0, -1.0, -1.0])
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import asdict, dataclass
+from typing import Any, Literal
+
+import gymnasium as gym
+import numpy as np
+
+from pico_gym.robot import RobotConfig
+from pico_gym.sensors.lrf import LrfConfig
+
+
+# --- pure functions -------------------------------------------------------------------------
+def sector_starts(n_beams: int, n_sectors: int) -> np.ndarray:
+    """First beam index of each of `n_sectors` contiguous sectors of (nearly) equal size.
+
+    >>> sector_starts(10, 3).tolist()
+    [0, 3, 6]
+    """
+    if not 1 <= n_sectors <= n_beams:
+        raise ValueError(f"n_sectors must be in 1..{n_beams} (the number of beams), got {n_sectors}")
+    return (np.arange(n_sectors) * n_beams) // n_sectors
+
+
+def min_pool(ranges: np.ndarray, starts: np.ndarray, range_max: float, normalize: bool = True) -> np.ndarray:
+    """Each sector's minimum range (0 = "no hit" in the legacy convention, so read as range_max).
+
+    >>> min_pool(np.array([3.0, 1.0, 0.0, 5.0, 2.0, 4.0]), np.array([0, 3]), 10.0, normalize=False).tolist()
+    [1.0, 2.0]
+    """
+    r = np.where(ranges > 0.0, ranges, range_max)
+    pooled = np.minimum.reduceat(r, starts)
+    if normalize:
+        pooled = np.clip(pooled / range_max, 0.0, 1.0)
+    return pooled.astype(np.float32)
+
+
+def body_velocity(previous: np.ndarray, current: np.ndarray, dt: float, robot: RobotConfig) -> np.ndarray:
+    """The body-frame twist that moved odometry from `previous` to `current` in `dt`, normalised
+    by the robot's limits (so a full-speed command reads 1).
+    """
+    dx, dy = float(current[0] - previous[0]), float(current[1] - previous[1])
+    c, s = math.cos(float(previous[2])), math.sin(float(previous[2]))
+    dtheta = math.remainder(float(current[2] - previous[2]), 2.0 * math.pi)
+    v = np.array([c * dx + s * dy, -s * dx + c * dy, 0.0]) / (dt * robot.max_speed_mps)
+    v[2] = dtheta / (dt * robot.max_turn_rate_radps)
+    return np.clip(v, -1.5, 1.5).astype(np.float32)
+
+
+def rescale_action(unit: np.ndarray, low: np.ndarray, high: np.ndarray) -> np.ndarray:
+    """Map an action in [-1, 1] to [low, high] (gymnasium's RescaleAction, as a function)."""
+    unit = np.clip(np.asarray(unit, dtype=np.float64), -1.0, 1.0)
+    return low + (unit + 1.0) * 0.5 * (high - low)
+
+
+# --- single-purpose wrappers ----------------------------------------------------------------
+def _env_config(env: gym.Env) -> Any:
+    config = getattr(env.unwrapped, "config", None)
+    if config is None or not hasattr(config, "lrf"):
+        raise TypeError(f"{type(env.unwrapped).__name__} is not a pico-gym env (it has no LRF config)")
+    return config
+
+
+class MinPoolLrf(gym.ObservationWrapper):
+    """Down-sample `obs["lrf"]` to `n_sectors` sector minima, normalised to [0, 1] by range_max."""
+
+    def __init__(self, env: gym.Env, n_sectors: int = 64, normalize: bool = True) -> None:
+        super().__init__(env)
+        lrf: LrfConfig = _env_config(env).lrf
+        self.starts = sector_starts(lrf.n_beams, n_sectors)
+        self.range_max = lrf.range_max_m
+        self.normalize = normalize
+        high = 1.0 if normalize else lrf.range_max_m
+        spaces = dict(env.observation_space.spaces)
+        spaces["lrf"] = gym.spaces.Box(0.0, high, (n_sectors,), np.float32)
+        self.observation_space = gym.spaces.Dict(spaces)
+
+    def observation(self, observation: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        return {**observation, "lrf": min_pool(observation["lrf"], self.starts, self.range_max, self.normalize)}
+
+
+class OdomVelocity(gym.Wrapper):
+    """Replace `obs["odom"]` (a pose) with the body-frame velocity it implies, in units of the
+    robot's limits (vx / v_max, vy / v_max, w / w_max); zero on reset."""
+
+    def __init__(self, env: gym.Env) -> None:
+        super().__init__(env)
+        config = _env_config(env)
+        self.robot, self.dt = config.robot, config.dt_s
+        spaces = dict(env.observation_space.spaces)
+        spaces["odom"] = gym.spaces.Box(-1.5, 1.5, (3,), np.float32)
+        self.observation_space = gym.spaces.Dict(spaces)
+        self._previous: np.ndarray | None = None
+
+    def reset(self, **kwargs: Any) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        obs, info = self.env.reset(**kwargs)
+        self._previous = obs["odom"]
+        return {**obs, "odom": np.zeros(3, np.float32)}, info
+
+    def step(self, action: Any) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
+        obs, reward, terminated, truncated, info = self.env.step(action)
+        velocity = body_velocity(self._previous, obs["odom"], self.dt, self.robot)
+        self._previous = obs["odom"]
+        return {**obs, "odom": velocity}, reward, terminated, truncated, info
+
+
+# --- the whole pipeline ---------------------------------------------------------------------
+@dataclass(frozen=True)
+class LearningConfig:
+    """What a policy sees and does.
+
+    Attributes:
+        n_sectors: LRF sectors after min-pooling.
+        frame_stack: how many of the latest frames the policy sees (oldest first).
+        odometry: "velocity" (body-frame velocity from odometry) or "none".
+    """
+
+    n_sectors: int = 64
+    frame_stack: int = 1
+    odometry: Literal["velocity", "none"] = "velocity"
+
+    def __post_init__(self) -> None:
+        if self.frame_stack < 1:
+            raise ValueError(f"frame_stack must be >= 1, got {self.frame_stack}")
+        if self.odometry not in ("velocity", "none"):
+            raise ValueError(f"odometry must be 'velocity' or 'none', got {self.odometry!r}")
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+class LearningEncoder:
+    """Raw pico-gym observations -> the flat policy input of `PicoLearningWrapper` (stateful:
+    call `reset` with an episode's first observation, then `encode` with each next one).
+
+    One frame is [LRF sectors..., vx, vy, w] (the last three only with odometry="velocity"); the
+    input is the last `frame_stack` frames, oldest first, the first frame repeated at a reset
+    (gymnasium's FrameStackObservation with padding "reset").
+    """
+
+    def __init__(self, lrf: LrfConfig, robot: RobotConfig, dt_s: float, config: LearningConfig) -> None:
+        self.config = config
+        self.robot, self.dt = robot, dt_s
+        self.range_max = lrf.range_max_m
+        self.starts = sector_starts(lrf.n_beams, config.n_sectors)
+        self.frame_size = config.n_sectors + (3 if config.odometry == "velocity" else 0)
+        low = np.zeros(self.frame_size, np.float32)
+        high = np.ones(self.frame_size, np.float32)
+        if config.odometry == "velocity":
+            low[-3:], high[-3:] = -1.5, 1.5
+        k = config.frame_stack
+        self.space = gym.spaces.Box(np.tile(low, k), np.tile(high, k), dtype=np.float32)
+        self._frames: deque[np.ndarray] = deque(maxlen=k)
+        self._previous: np.ndarray | None = None
+
+    def _frame(self, obs: dict[str, np.ndarray], velocity: np.ndarray) -> np.ndarray:
+        lrf = min_pool(obs["lrf"], self.starts, self.range_max)
+        return np.concatenate([lrf, velocity]) if self.config.odometry == "velocity" else lrf
+
+    def reset(self, obs: dict[str, np.ndarray]) -> np.ndarray:
+        self._previous = np.asarray(obs["odom"])
+        frame = self._frame(obs, np.zeros(3, np.float32))
+        self._frames.clear()
+        self._frames.extend([frame] * self.config.frame_stack)
+        return np.concatenate(self._frames)
+
+    def encode(self, obs: dict[str, np.ndarray]) -> np.ndarray:
+        if self._previous is None:
+            raise RuntimeError("LearningEncoder.encode called before reset")
+        odom = np.asarray(obs["odom"])
+        self._frames.append(self._frame(obs, body_velocity(self._previous, odom, self.dt, self.robot)))
+        self._previous = odom
+        return np.concatenate(self._frames)
+
+
+class PicoLearningWrapper(gym.Wrapper):
+    """The learning pipeline in one wrapper: min-pooled, normalised LRF, odometry velocity, frame
+    stacking, a flat Box observation, and actions in [-1, 1].
+
+    Equivalent to MinPoolLrf -> OdomVelocity -> FlattenObservation -> FrameStackObservation ->
+    FlattenObservation -> RescaleAction(-1, 1) (tested), in one pass per step.
+    """
+
+    def __init__(self, env: gym.Env, n_sectors: int = 64, frame_stack: int = 1, odometry: str = "velocity") -> None:
+        config = _env_config(env)
+        ones = np.ones(env.action_space.shape, np.float32)
+        super().__init__(gym.wrappers.RescaleAction(env, -ones, ones))
+        self.learning = LearningConfig(n_sectors, frame_stack, odometry)  # type: ignore[arg-type]
+        self.encoder = LearningEncoder(config.lrf, config.robot, config.dt_s, self.learning)
+        self.observation_space = self.encoder.space
+
+    def reset(self, **kwargs: Any) -> tuple[np.ndarray, dict[str, Any]]:
+        obs, info = self.env.reset(**kwargs)
+        return self.encoder.reset(obs), info
+
+    def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        obs, reward, terminated, truncated, info = self.env.step(action)
+        return self.encoder.encode(obs), reward, terminated, truncated, info
+
+
+def learning_env(env_id: str = "PicoEscape-v0", learning: LearningConfig | None = None, **env_kwargs: Any) -> gym.Env:
+    """`gym.make(env_id, **env_kwargs)` wrapped in `PicoLearningWrapper` with `learning`."""
+    import pico_gym  # noqa: F401  (registers the ids)
+
+    return PicoLearningWrapper(gym.make(env_id, **env_kwargs), **(learning or LearningConfig()).to_dict())

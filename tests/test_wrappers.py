@@ -1,0 +1,118 @@
+"""The learning wrappers: shapes, bounds, min-pooling, action rescaling, and the one-pass pipeline
+equal to the chain of standard wrappers."""
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.wrappers import FlattenObservation, FrameStackObservation, RescaleAction
+
+import pico_gym  # noqa: F401
+from pico_gym.wrappers import (
+    LearningConfig,
+    MinPoolLrf,
+    OdomVelocity,
+    PicoLearningWrapper,
+    min_pool,
+    rescale_action,
+    sector_starts,
+)
+
+
+def test_sector_starts_cover_every_beam_once():
+    for n_beams, n_sectors in [(1000, 64), (1000, 90), (1000, 1000), (7, 3), (1000, 1)]:
+        starts = sector_starts(n_beams, n_sectors)
+        sizes = np.diff(np.append(starts, n_beams))
+        assert len(starts) == n_sectors and starts[0] == 0
+        assert sizes.sum() == n_beams and sizes.min() >= 1 and sizes.max() - sizes.min() <= 1
+    with pytest.raises(ValueError, match="n_sectors"):
+        sector_starts(10, 11)
+
+
+def test_min_pool_is_the_sector_minimum():
+    rng = np.random.default_rng(0)
+    ranges = rng.uniform(0.1, 10.0, 1000)
+    starts = sector_starts(1000, 64)
+    pooled = min_pool(ranges, starts, 10.0, normalize=False)
+    bounds = np.append(starts, 1000)
+    expected = [ranges[a:b].min() for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
+    np.testing.assert_allclose(pooled, expected, rtol=1e-6)
+    # A single close beam makes its whole sector read close: conservative.
+    ranges = np.full(1000, 8.0)
+    ranges[500] = 0.3
+    pooled = min_pool(ranges, starts, 10.0)
+    assert pooled.min() == pytest.approx(0.03) and np.sum(pooled < 0.5) == 1
+    # The legacy "0 = no hit" reads as range_max, not as an obstacle at 0 m.
+    assert min_pool(np.zeros(10), np.array([0, 5]), 10.0).tolist() == [1.0, 1.0]
+
+
+def test_action_rescaling_round_trip():
+    low, high = np.array([-0.5, -0.5, -1.2]), np.array([0.5, 0.5, 1.2])
+    for unit in ([-1, -1, -1], [1, 1, 1], [0, 0, 0], [0.3, -0.7, 0.5]):
+        twist = rescale_action(np.array(unit, float), low, high)
+        assert np.all(twist >= low) and np.all(twist <= high)
+        np.testing.assert_allclose((twist - low) / (high - low) * 2 - 1, unit, atol=1e-12)
+    np.testing.assert_allclose(rescale_action(np.array([5.0, -5, 0]), low, high), [0.5, -0.5, 0.0])
+    # And through the wrapper: unit action 1 on vx drives at 0.5 m/s.
+    env = PicoLearningWrapper(gym.make("PicoEscape-v0", map="escape_2019"), n_sectors=16)
+    env.reset(seed=0)
+    before = env.unwrapped.pose
+    env.step(np.array([1.0, 0.0, 0.0], np.float32))
+    after = env.unwrapped.pose
+    assert np.hypot(after.x - before.x, after.y - before.y) == pytest.approx(0.05, abs=2e-3)
+
+
+@pytest.mark.parametrize("n_sectors,frame_stack", [(64, 1), (90, 3)])
+def test_learning_wrapper_shapes_and_bounds(n_sectors, frame_stack):
+    env = PicoLearningWrapper(gym.make("PicoEscape-v0"), n_sectors=n_sectors, frame_stack=frame_stack)
+    size = (n_sectors + 3) * frame_stack
+    assert env.observation_space.shape == (size,)
+    assert env.action_space.shape == (3,)
+    np.testing.assert_array_equal(env.action_space.low, -1)
+    np.testing.assert_array_equal(env.action_space.high, 1)
+    obs, _ = env.reset(seed=3)
+    rng = np.random.default_rng(0)
+    for _ in range(60):
+        assert obs.shape == (size,) and obs.dtype == np.float32
+        assert env.observation_space.contains(obs)
+        obs, _, terminated, truncated, _ = env.step(rng.uniform(-1, 1, 3).astype(np.float32))
+        if terminated or truncated:
+            obs, _ = env.reset()
+
+
+def test_learning_wrapper_equals_the_chain_of_standard_wrappers():
+    def chain():
+        env = gym.make("PicoEscape-v0", noise_m=0.02, slip_std=0.05)
+        env = FlattenObservation(OdomVelocity(MinPoolLrf(env, n_sectors=32)))
+        env = FlattenObservation(FrameStackObservation(env, 3))
+        return RescaleAction(env, -1.0, 1.0)
+
+    a, b = chain(), PicoLearningWrapper(gym.make("PicoEscape-v0", noise_m=0.02, slip_std=0.05), 32, 3)
+    oa, _ = a.reset(seed=11)
+    ob, _ = b.reset(seed=11)
+    rng = np.random.default_rng(1)
+    for _ in range(40):
+        np.testing.assert_allclose(oa, ob, atol=1e-6)
+        action = rng.uniform(-1, 1, 3).astype(np.float32)
+        oa, ra, ta, _, _ = a.step(action)
+        ob, rb, tb, _, _ = b.step(action)
+        assert ra == rb and ta == tb
+        if ta:
+            break
+
+
+def test_odom_velocity_reads_the_commanded_twist():
+    env = OdomVelocity(gym.make("PicoEscape-v0", map="escape_2019"))
+    obs, _ = env.reset(seed=0)
+    np.testing.assert_array_equal(obs["odom"], 0)
+    obs, *_ = env.step(np.array([0.25, -0.1, 0.6]))
+    # Odometry integrates the commanded twist: vx/vmax, vy/vmax, w/wmax.
+    np.testing.assert_allclose(obs["odom"], [0.5, -0.2, 0.5], atol=0.02)
+
+
+def test_bad_settings_are_named():
+    with pytest.raises(ValueError, match="frame_stack"):
+        LearningConfig(frame_stack=0)
+    with pytest.raises(ValueError, match="odometry"):
+        LearningConfig(odometry="pose")
+    with pytest.raises(TypeError, match="not a pico-gym env"):
+        MinPoolLrf(gym.make("CartPole-v1"))
