@@ -17,7 +17,7 @@ import gymnasium as gym
 
 from agents.base import Agent, RobotSpec
 
-AGENTS = ("classic", "wall-follow", "random")
+AGENTS = ("classic", "ppo", "wall-follow", "random")
 
 
 def make_agent(name: str, env: gym.Env, **kwargs: Any) -> Agent:
@@ -26,7 +26,8 @@ def make_agent(name: str, env: gym.Env, **kwargs: Any) -> Agent:
     Args:
         name: one of AGENTS.
         env: the env (only its robot's public spec is used).
-        **kwargs: passed to the agent (e.g. `seed` for random, `config` for classic).
+        **kwargs: passed to the agent (e.g. `seed` for random, `config` for classic, `path` for
+            ppo: a policy zip other than the shipped one).
 
     Raises:
         ValueError: for an unknown name, listing the known ones.
@@ -36,6 +37,10 @@ def make_agent(name: str, env: gym.Env, **kwargs: Any) -> Agent:
         from agents.classic.agent import ClassicAgent
 
         return ClassicAgent(spec, **kwargs)
+    if name == "ppo":
+        from agents.ppo import PpoAgent
+
+        return PpoAgent(spec, **kwargs)
     if name == "wall-follow":
         from agents.baselines import WallFollowAgent
 

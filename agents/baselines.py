@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import math
+import zlib
+from typing import Any
 
 import numpy as np
 
@@ -12,14 +14,22 @@ from pico_gym.overlay import Overlay
 
 
 class RandomAgent(Agent):
-    """Uniform random twists within the limits, from its own seeded generator."""
+    """Uniform random twists within the limits, from its own generator.
+
+    The generator is re-seeded at each reset from `seed` and the episode's first scan, so an
+    episode plays the same whatever ran before it (in which worker, in which order).
+    """
 
     name = "random"
 
-    def __init__(self, spec: RobotSpec, seed: int | None = None) -> None:
+    def __init__(self, spec: RobotSpec, seed: int = 0) -> None:
         super().__init__(spec)
+        self.seed = seed
         self.rng = np.random.default_rng(seed)
         self.high = spec.robot.action_high
+
+    def reset(self, obs: dict[str, np.ndarray], info: dict[str, Any] | None = None) -> None:
+        self.rng = np.random.default_rng([self.seed, zlib.crc32(np.ascontiguousarray(obs["lrf"]).tobytes())])
 
     def act(self, obs: dict[str, np.ndarray]) -> np.ndarray:
         return (self.rng.uniform(-1.0, 1.0, 3) * self.high).astype(np.float32)

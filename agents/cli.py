@@ -45,6 +45,11 @@ def _common(p: argparse.ArgumentParser) -> None:
         metavar="KEY=VALUE",
         help="an env option, e.g. --set noise_m=0.02 --set slip_std=0.05 (repeatable)",
     )
+    p.add_argument("--policy", help="the PPO agent's policy zip (default: the shipped one)")
+
+
+def _agent_kwargs(args: argparse.Namespace, agent: str) -> dict[str, Any]:
+    return {"path": args.policy} if agent == "ppo" and args.policy else {}
 
 
 def cmd_run(args: argparse.Namespace) -> int:
@@ -57,7 +62,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 
     mode = "human" if args.render == "human" else ("rgb_array" if args.gif or args.video else None)
     env = gym.make("PicoEscape-v0", render_mode=mode, **_env_options(args))
-    agent = make_agent(args.agent, env)
+    agent = make_agent(args.agent, env, **_agent_kwargs(args, args.agent))
     env.unwrapped.set_overlay(agent.overlay)
     frames = []
     record_frame = (lambda: frames.append(env.render())) if mode == "rgb_array" else None
@@ -93,7 +98,9 @@ def cmd_bench(args: argparse.Namespace) -> int:
     options = _env_options(args)
     seeds = range(args.seed, args.seed + args.episodes)
     with tqdm(total=args.episodes, desc=f"{args.agent}", unit="ep", file=sys.stderr, disable=args.quiet) as bar:
-        records = run_episodes(args.agent, seeds, options, workers=args.workers, progress=bar.update)
+        records = run_episodes(
+            args.agent, seeds, options, _agent_kwargs(args, args.agent), args.workers, progress=bar.update
+        )
     summary = summarize(records)
     print(format_summary(args.agent, summary))
     last = args.seed + args.episodes - 1
@@ -132,3 +139,41 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json", help="write per-episode records and the summary as JSON")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_bench)
+
+
+def cmd_compare(args: argparse.Namespace) -> int:
+    from tqdm import tqdm
+
+    from agents.compare import Episodes, compare, markdown_table
+
+    agents = [a.strip() for a in args.agents.split(",") if a.strip()]
+    unknown = [a for a in agents if a not in AGENTS]
+    if unknown or not agents:
+        print(f"pico-gym compare: unknown agent(s) {unknown}; agents: {', '.join(AGENTS)}", file=sys.stderr)
+        return 2
+    episodes = Episodes.suite(args.suite, args.episodes, args.seed, _env_options(args))
+    total = len(agents) * sum(len(seeds) for _, seeds in episodes.groups)
+    kwargs = {a: _agent_kwargs(args, a) for a in agents}
+    with tqdm(total=total, desc="compare", unit="ep", file=sys.stderr, disable=args.quiet) as bar:
+        summaries = compare(agents, episodes, args.out, kwargs, args.workers, args.trajectories, bar.update)
+    print(markdown_table(summaries))
+    print(
+        f"wrote {args.out}/results.md, results.json, results.csv, escape_times.png, success_bumps.png"
+        + (", trajectories.png" if args.trajectories else "")
+    )
+    return 0
+
+
+def add_compare(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("compare", help="run several agents on the same episodes; table, JSON, CSV and plots")
+    p.add_argument("--agents", default="classic,ppo,wall-follow,random", help="comma-separated agent names")
+    p.add_argument("--episodes", type=int, default=50, help="episodes per suite part (rooms, or starts per map)")
+    p.add_argument("--seed", type=int, default=1000, help="first seed (PPO trains on seeds >= 1,000,000)")
+    p.add_argument("--suite", choices=("generated", "maps", "all"), default="generated")
+    p.add_argument("--out", default="compare", help="output directory")
+    p.add_argument("--set", action="append", metavar="KEY=VALUE", help="an env option (repeatable)")
+    p.add_argument("--policy", help="the PPO agent's policy zip (default: the shipped one)")
+    p.add_argument("--trajectories", type=int, default=3, help="rooms in trajectories.png (0: no figure)")
+    p.add_argument("--workers", type=int, default=None, help="processes (default: one per core)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_compare, map=None, map_path=None)

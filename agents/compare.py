@@ -1,0 +1,275 @@
+"""`pico-gym compare`: every agent on the same episodes, side by side.
+
+An episode is (map or generated room, seed); the seed fixes the room, the start pose and every
+noise draw, so all agents face exactly the same episodes. Default seeds (1000..) are disjoint from
+PPO's training seeds (>= 1,000,000) and its evaluation seeds (900,000..). Writes to DIR:
+
+    results.md    the table (also printed)
+    results.json  settings, a summary per agent, one record per episode (as `pico-gym bench`)
+    results.csv   one row per episode
+    escape_times.png, success_bumps.png, trajectories.png
+
+Everything but the measured compute time per step (`act_ms`) is a deterministic function of the
+seeds: the same command gives the same numbers.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+import pico_gym  # noqa: F401
+from agents import make_agent
+from agents.evaluation import EpisodeRecord, Summary, run_episode, run_episodes, summarize
+from pico_gym.world.catalog import shipped_maps
+
+SUITES = ("generated", "maps", "all")
+# Trajectory colours per agent, fixed so figures read the same across runs.
+COLOURS = {"classic": "C0", "ppo": "C1", "wall-follow": "C2", "random": "C7"}
+
+
+def escape_maps() -> list[str]:
+    """The shipped escape-room maps."""
+    return sorted(name for name in shipped_maps() if name.startswith("escape"))
+
+
+@dataclass(frozen=True)
+class Episodes:
+    """Which episodes to run: (map or None for generated rooms, seeds)."""
+
+    groups: tuple[tuple[str | None, tuple[int, ...]], ...]
+    env_options: dict[str, Any] = field(default_factory=dict)
+
+    @staticmethod
+    def suite(name: str, episodes: int, seed: int, env_options: dict[str, Any] | None = None) -> Episodes:
+        """`episodes` generated rooms and/or `episodes` start poses on each shipped escape map."""
+        if name not in SUITES:
+            raise ValueError(f"suite must be one of {SUITES}, got {name!r}")
+        seeds = tuple(range(seed, seed + episodes))
+        groups: list[tuple[str | None, tuple[int, ...]]] = []
+        if name in ("generated", "all"):
+            groups.append((None, seeds))
+        if name in ("maps", "all"):
+            groups += [(m, seeds) for m in escape_maps()]
+        return Episodes(tuple(groups), dict(env_options or {}))
+
+    def env_kwargs(self, map_name: str | None) -> dict[str, Any]:
+        if map_name is None:
+            return dict(self.env_options)
+        return {**self.env_options, "map": map_name, "sample_start": True}
+
+
+def run_comparison(
+    agents: Sequence[str],
+    episodes: Episodes,
+    agent_kwargs: dict[str, dict[str, Any]] | None = None,
+    workers: int | None = None,
+    progress: Callable[[int], None] | None = None,
+) -> dict[str, list[EpisodeRecord]]:
+    """Every agent on every episode; records per agent in (group, seed) order."""
+    agent_kwargs = agent_kwargs or {}
+    results: dict[str, list[EpisodeRecord]] = {}
+    for name in agents:
+        records: list[EpisodeRecord] = []
+        for map_name, seeds in episodes.groups:
+            records += run_episodes(
+                name, seeds, episodes.env_kwargs(map_name), agent_kwargs.get(name), workers, progress
+            )
+        results[name] = records
+    return results
+
+
+# --- outputs --------------------------------------------------------------------------------
+COLUMNS = [
+    ("success", lambda s: f"{100 * s.success_rate:.1f} %"),
+    ("bumps", lambda s: f"{100 * s.bump_rate:.1f} %"),
+    ("idle", lambda s: f"{s.idle}"),
+    ("timeout", lambda s: f"{s.timeout}"),
+    ("escape time median", lambda s: _seconds(s.escape_time_median_s)),
+    ("escape time p90", lambda s: _seconds(s.escape_time_p90_s)),
+    ("SPL", lambda s: f"{s.spl:.3f}"),
+    ("SCT median", lambda s: f"{s.sct_median:.3f}"),
+    ("mean min clearance", lambda s: f"{s.min_clearance_mean:.3f} m"),
+    ("compute per step", lambda s: f"{s.act_ms_median:.2f} ms"),
+]
+
+
+def _seconds(value: float) -> str:
+    return "-" if math.isnan(value) else f"{value:.1f} s"
+
+
+def markdown_table(summaries: dict[str, Summary]) -> str:
+    """A Markdown table, one row per agent."""
+    header = "| agent | episodes | " + " | ".join(c for c, _ in COLUMNS) + " |"
+    rule = "|---|---:|" + "---:|" * len(COLUMNS)
+    rows = [f"| {a} | {s.episodes} | " + " | ".join(f(s) for _, f in COLUMNS) + " |" for a, s in summaries.items()]
+    return "\n".join([header, rule, *rows])
+
+
+def write_results(out: Path, results: dict[str, list[EpisodeRecord]], settings: dict[str, Any]) -> dict[str, Summary]:
+    """results.md, results.json and results.csv; returns the summaries."""
+    out.mkdir(parents=True, exist_ok=True)
+    summaries = {name: summarize(records) for name, records in results.items()}
+    table = markdown_table(summaries)
+    lines = [
+        "# pico-gym compare",
+        "",
+        f"Episodes: {_describe(settings)}. Same rooms, start poses and noise for every agent.",
+        "Escape times are over successful episodes; SCT = success x oracle time / max(time, oracle time).",
+        "",
+        table,
+        "",
+        "![escape times](escape_times.png) ![success and bumps](success_bumps.png)",
+        "",
+        "![trajectories](trajectories.png)",
+        "",
+    ]
+    (out / "results.md").write_text("\n".join(lines))
+    payload = {
+        "settings": settings,
+        "summary": {name: s.to_dict() for name, s in summaries.items()},
+        "episodes": [r.to_dict() for records in results.values() for r in records],
+    }
+    (out / "results.json").write_text(json.dumps(payload, indent=1) + "\n")
+    fields = list(EpisodeRecord.__dataclass_fields__) + ["spl", "sct"]
+    with (out / "results.csv").open("w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=fields)
+        writer.writeheader()
+        for records in results.values():
+            for r in records:
+                writer.writerow({**r.to_dict(), "spl": r.spl, "sct": r.sct})
+    return summaries
+
+
+def _describe(settings: dict[str, Any]) -> str:
+    parts = []
+    for group in settings["episodes"]:
+        where = group["map"] or "generated rooms"
+        parts.append(f"{where}, seeds {group['seeds'][0]}..{group['seeds'][-1]}")
+    options = settings.get("env_options") or {}
+    return "; ".join(parts) + (f"; env options {options}" if options else "")
+
+
+def plot_results(out: Path, results: dict[str, list[EpisodeRecord]], summaries: dict[str, Summary]) -> list[Path]:
+    """Escape-time distributions and success/bump bars as PNGs."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    names = list(results)
+    fig, ax = plt.subplots(figsize=(7, 3.8), dpi=110)
+    times = [[r.time_s for r in results[n] if r.success] for n in names]
+    positions = [i for i, t in enumerate(times) if t]
+    if positions:
+        ax.boxplot([times[i] for i in positions], positions=positions, widths=0.5, showfliers=True)
+        for i in positions:
+            jitter = np.linspace(-0.15, 0.15, len(times[i]))
+            ax.scatter(i + jitter, times[i], s=6, alpha=0.4, color=COLOURS.get(names[i], "C4"))
+    ax.set_xticks(range(len(names)), [f"{n}\n({len(t)} escapes)" for n, t in zip(names, times, strict=True)])
+    ax.set_ylabel("escape time [s]")
+    ax.set_title("Escape time (successful episodes)")
+    ax.grid(axis="y", alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(out / "escape_times.png")
+    plt.close(fig)
+
+    fig, ax = plt.subplots(figsize=(7, 3.5), dpi=110)
+    x = np.arange(len(names))
+    success = [100 * summaries[n].success_rate for n in names]
+    bumps = [100 * summaries[n].bump_rate for n in names]
+    ax.bar(x - 0.2, success, 0.4, label="success", color="C2")
+    ax.bar(x + 0.2, bumps, 0.4, label="bumped", color="C3")
+    for xi, (s, b) in enumerate(zip(success, bumps, strict=True)):
+        ax.text(xi - 0.2, s + 1, f"{s:.0f}", ha="center", fontsize=8)
+        ax.text(xi + 0.2, b + 1, f"{b:.0f}", ha="center", fontsize=8)
+    ax.set_xticks(x, names)
+    ax.set_ylim(0, 110)
+    ax.set_ylabel("% of episodes")
+    ax.legend()
+    ax.set_title("Success and bump rates")
+    fig.tight_layout()
+    fig.savefig(out / "success_bumps.png")
+    plt.close(fig)
+    return [out / "escape_times.png", out / "success_bumps.png"]
+
+
+def plot_trajectories(
+    out: Path,
+    agents: Sequence[str],
+    episodes: Episodes,
+    n_rooms: int = 3,
+    agent_kwargs: dict[str, dict[str, Any]] | None = None,
+) -> Path:
+    """Each agent's true path in the first `n_rooms` episodes (replayed: episodes are deterministic)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    agent_kwargs = agent_kwargs or {}
+    picks = [(m, s) for m, seeds in episodes.groups for s in seeds][:n_rooms]
+    fig, axes = plt.subplots(1, len(picks), figsize=(4.2 * len(picks), 4.4), dpi=110, squeeze=False)
+    for ax, (map_name, seed) in zip(axes[0], picks, strict=True):
+        env = gym.make("PicoEscape-v0", **episodes.env_kwargs(map_name))
+        world = None
+        for name in agents:
+            agent = make_agent(name, env, **agent_kwargs.get(name, {}))
+            record = run_episode(env, agent, seed, name)
+            world = env.unwrapped.episode.map
+            path = np.array([(p.x, p.y) for p in env.unwrapped.trajectory])
+            label = f"{name}: {'escaped' if record.success else record.termination_reason} {record.time_s:.0f} s"
+            ax.plot(path[:, 0], path[:, 1], lw=1.4, color=COLOURS.get(name, "C4"), label=label)
+            if record.bumps:
+                ax.plot(*path[-1], "x", color="red", ms=8, mew=2)
+        assert world is not None
+        for x0, y0, x1, y1 in world.seen_segments():
+            ax.plot([x0, x1], [y0, y1], color="black", lw=1.5)
+        if world.finish is not None:
+            f = np.asarray(world.finish)
+            ax.plot(f[:, 0], f[:, 1], color="green", lw=1, ls="--")
+        start = env.unwrapped.trajectory[0]
+        ax.plot(start.x, start.y, "o", color="black", ms=5)
+        ax.set_aspect("equal")
+        ax.set_title(f"{map_name or 'generated room'}, seed {seed}", fontsize=9)
+        ax.legend(fontsize=7, loc="best")
+        ax.set_xticks([])
+        ax.set_yticks([])
+        env.close()
+    fig.tight_layout()
+    fig.savefig(out / "trajectories.png")
+    plt.close(fig)
+    return out / "trajectories.png"
+
+
+def compare(
+    agents: Sequence[str],
+    episodes: Episodes,
+    out: str | Path,
+    agent_kwargs: dict[str, dict[str, Any]] | None = None,
+    workers: int | None = None,
+    n_rooms: int = 3,
+    progress: Callable[[int], None] | None = None,
+) -> dict[str, Summary]:
+    """Run, write results.{md,json,csv} and the plots into `out`; returns the summaries."""
+    out = Path(out)
+    results = run_comparison(agents, episodes, agent_kwargs, workers, progress)
+    settings = {
+        "agents": list(agents),
+        "agent_kwargs": {k: {kk: str(vv) for kk, vv in v.items()} for k, v in (agent_kwargs or {}).items()},
+        "env_options": episodes.env_options,
+        "episodes": [{"map": m, "seeds": list(s)} for m, s in episodes.groups],
+    }
+    summaries = write_results(out, results, settings)
+    plot_results(out, results, summaries)
+    if n_rooms > 0:
+        plot_trajectories(out, agents, episodes, n_rooms, agent_kwargs)
+    return summaries

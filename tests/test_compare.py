@@ -1,0 +1,126 @@
+"""`pico-gym compare`: its files have the documented fields, and the same seed gives the same numbers."""
+
+import csv
+import json
+
+import pytest
+
+from agents.cli import add_compare
+from agents.compare import Episodes, escape_maps
+from pico_gym.cli import main
+
+
+def _run(out, *extra):
+    argv = [
+        "compare",
+        "--agents",
+        "classic,wall-follow,random",
+        "--episodes",
+        "2",
+        "--seed",
+        "1000",
+        "--trajectories",
+        "1",
+        "--workers",
+        "1",
+        "--quiet",
+        "--out",
+        str(out),
+        *extra,
+    ]
+    assert main(argv) == 0
+
+
+def _numbers(payload):
+    """Everything but the measured compute time, which is a timing, not a result."""
+    episodes = [{k: v for k, v in e.items() if k != "act_ms"} for e in payload["episodes"]]
+    summary = {a: {k: v for k, v in s.items() if k != "act_ms_median"} for a, s in payload["summary"].items()}
+    return episodes, summary
+
+
+def test_compare_writes_table_json_csv_and_plots_deterministically(tmp_path, capsys):
+    _run(tmp_path / "a")
+    printed = capsys.readouterr().out
+    assert "| agent | episodes | success | bumps |" in printed and "| classic | 2 |" in printed
+    out = tmp_path / "a"
+    for name in (
+        "results.md",
+        "results.json",
+        "results.csv",
+        "escape_times.png",
+        "success_bumps.png",
+        "trajectories.png",
+    ):
+        assert (out / name).is_file() and (out / name).stat().st_size > 0, name
+    md = (out / "results.md").read_text()
+    for column in (
+        "success",
+        "bumps",
+        "idle",
+        "timeout",
+        "escape time median",
+        "escape time p90",
+        "SPL",
+        "SCT median",
+        "mean min clearance",
+        "compute per step",
+    ):
+        assert column in md
+    payload = json.loads((out / "results.json").read_text())
+    assert set(payload["summary"]) == {"classic", "wall-follow", "random"}
+    for s in payload["summary"].values():
+        assert {
+            "success_rate",
+            "bump_rate",
+            "idle",
+            "timeout",
+            "escape_time_median_s",
+            "escape_time_p90_s",
+            "spl",
+            "sct_median",
+            "min_clearance_mean",
+            "act_ms_median",
+        } <= set(s)
+    assert len(payload["episodes"]) == 6
+    fields = {
+        "agent",
+        "seed",
+        "map",
+        "success",
+        "termination_reason",
+        "time_s",
+        "bumps",
+        "path_length",
+        "shortest_path_length",
+        "min_clearance",
+        "act_ms",
+    }
+    assert all(fields <= set(e) for e in payload["episodes"])
+    # Every agent faced the same episodes.
+    by_agent = {
+        a: [(e["map"], e["seed"], e["shortest_path_length"]) for e in payload["episodes"] if e["agent"] == a]
+        for a in payload["summary"]
+    }
+    assert by_agent["classic"] == by_agent["random"] == by_agent["wall-follow"]
+    rows = list(csv.DictReader((out / "results.csv").open()))
+    assert len(rows) == 6 and fields | {"spl", "sct"} <= set(rows[0])
+
+    _run(tmp_path / "b")
+    again = json.loads((tmp_path / "b" / "results.json").read_text())
+    assert _numbers(again) == _numbers(payload)
+
+
+def test_suites():
+    assert Episodes.suite("generated", 3, 10).groups == ((None, (10, 11, 12)),)
+    maps = Episodes.suite("maps", 2, 0)
+    assert [m for m, _ in maps.groups] == escape_maps() and "escape_2019" in escape_maps()
+    assert maps.env_kwargs("escape_2019")["sample_start"] is True
+    assert len(Episodes.suite("all", 1, 0).groups) == 1 + len(escape_maps())
+    with pytest.raises(ValueError, match="suite"):
+        Episodes.suite("hospital", 1, 0)
+
+
+def test_unknown_agent_is_named(capsys):
+    assert main(["compare", "--agents", "classic,genius", "--quiet"]) == 2
+    assert "genius" in capsys.readouterr().err
+    assert callable(add_compare)

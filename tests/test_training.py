@@ -1,0 +1,123 @@
+"""Training smoke tests: a few thousand PPO steps run, save, load, act, resume; configs are checked."""
+
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import yaml
+
+pytest.importorskip("stable_baselines3")
+
+import pico_gym  # noqa: E402,F401
+from agents import make_agent  # noqa: E402
+from agents.evaluation import run_episode  # noqa: E402
+from train.cli import DEFAULT_CONFIG  # noqa: E402
+from train.ppo import TRAIN_SEED_MIN, ConfigError, EpisodeSeeds, latest_checkpoint, load_config, train  # noqa: E402
+
+TINY = """
+PicoEscape-v0:
+  n_envs: 2
+  n_timesteps: 2048
+  policy: 'MlpPolicy'
+  env_wrapper:
+    - pico_gym.wrappers.PicoLearningWrapper:
+        n_sectors: 16
+        frame_stack: 2
+  n_steps: 256
+  batch_size: 128
+  n_epochs: 2
+  policy_kwargs: "dict(net_arch=[32, 32])"
+pico-gym:
+  env_kwargs: {n_beams: 200, time_limit_s: 15}
+  checkpoint_freq: 1024
+  eval_freq: 1024
+  eval_episodes: 2
+"""
+
+
+@pytest.fixture
+def tiny_config(tmp_path):
+    path = tmp_path / "tiny.yaml"
+    path.write_text(TINY)
+    return load_config(path)
+
+
+def test_train_save_load_act_and_resume(tiny_config, tmp_path):
+    run = tmp_path / "run"
+    model_path = train(tiny_config, run, seed=0, progress_bar=False)
+    for name in (
+        "config.yaml",
+        "model.zip",
+        "model.json",
+        "best.zip",
+        "eval.csv",
+        "progress.csv",
+        "learning_curve.png",
+    ):
+        assert (run / name).is_file(), name
+    assert any((run / "tb").glob("events.out.tfevents.*"))
+    resolved = yaml.safe_load((run / "config.yaml").read_text())
+    assert resolved["PicoEscape-v0"]["n_timesteps"] == 2048 and resolved["run"]["seed"] == 0
+    assert latest_checkpoint(run)[1] == 2048
+    header = (run / "progress.csv").read_text().splitlines()[0]
+    assert "escape/success_rate" in header and "escape/bump_rate" in header
+
+    env = gym.make("PicoEscape-v0", n_beams=200, time_limit_s=15)
+    agent = make_agent("ppo", env, path=model_path)
+    record = run_episode(env, agent, seed=5)
+    assert record.time_s > 0 and record.termination_reason in ("escaped", "bump", "idle", "timeout")
+    obs, info = env.reset(seed=1)
+    agent.reset(obs, info)
+    action = agent.act(obs)
+    assert env.action_space.contains(action.astype(np.float32))
+
+    # Resuming continues from the last checkpoint to the new total.
+    train(tiny_config, run, timesteps=3072, seed=0, progress_bar=False)
+    assert latest_checkpoint(run)[1] == 3072
+    assert '"timesteps": 3072' in (run / "done.json").read_text()
+
+
+def test_a_policy_for_another_robot_is_refused(tiny_config, tmp_path):
+    model_path = train(tiny_config, tmp_path / "run", timesteps=512, progress_bar=False)
+    env = gym.make("PicoEscape-v0", n_beams=10)  # 10 beams cannot give 16 sectors
+    with pytest.raises(ValueError, match="n_sectors"):
+        make_agent("ppo", env, path=model_path)
+    with pytest.raises(FileNotFoundError, match="no PPO policy"):
+        make_agent("ppo", gym.make("PicoEscape-v0"), path=tmp_path / "nothing.zip")
+
+
+def test_training_seeds_are_disjoint_from_evaluation_seeds():
+    env = EpisodeSeeds(gym.make("PicoEscape-v0", n_beams=10), np.random.default_rng(0))
+    seeds = []
+    for _ in range(5):
+        env.reset(seed=3)  # an explicit seed is replaced by a training seed
+        seeds.append(env.unwrapped.np_random_seed)
+    assert all(s >= TRAIN_SEED_MIN for s in seeds) and len(set(seeds)) == 5
+
+
+def test_shipped_config_loads_in_rl_zoo_layout():
+    config = load_config(DEFAULT_CONFIG)
+    assert config.env_id == "PicoEscape-v0"
+    assert config.learning.n_sectors > 0
+    raw = yaml.safe_load(Path(DEFAULT_CONFIG).read_text())
+    block = raw["PicoEscape-v0"]
+    assert {"n_envs", "n_timesteps", "policy", "env_wrapper"} <= set(block)
+    assert isinstance(block["policy_kwargs"], str)  # rl-zoo3 evaluates it as Python
+
+
+@pytest.mark.parametrize(
+    "text,match",
+    [
+        ("Other-v0: {}\n", "no block for 'PicoEscape-v0'"),
+        ("PicoEscape-v0: {n_envs: 1, n_timesteps: 1, policy: MlpPolicy}\n", "env_wrapper is missing"),
+        (TINY + "  surprise: 1\n", "unknown key"),
+        ("PicoEscape-v0: [\n", "not valid YAML"),
+    ],
+)
+def test_bad_configs_name_file_and_key(tmp_path, text, match):
+    path = tmp_path / "bad.yaml"
+    path.write_text(text)
+    with pytest.raises(ConfigError, match=match) as err:
+        load_config(path)
+    assert "bad.yaml" in str(err.value)

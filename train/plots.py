@@ -1,0 +1,45 @@
+"""The learning curve of a training run (matplotlib, headless)."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+
+def _read(path: Path) -> list[dict[str, str]]:
+    return list(csv.DictReader(path.open())) if path.exists() else []
+
+
+def plot_learning_curve(run_dir: str | Path, out: str | Path) -> Path:
+    """Success rate vs env steps: training episodes (last 100) and periodic evaluations."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    run_dir = Path(run_dir)
+    fig, ax = plt.subplots(figsize=(7, 4), dpi=110)
+    progress = [r for r in _read(run_dir / "progress.csv") if r.get("escape/success_rate")]
+    if progress:
+        ax.plot(
+            [int(r["time/total_timesteps"]) for r in progress],
+            [100 * float(r["escape/success_rate"]) for r in progress],
+            color="0.6",
+            lw=1,
+            label="training episodes (last 100)",
+        )
+    evals = _read(run_dir / "eval.csv")
+    if evals:
+        steps = [int(r["timesteps"]) for r in evals]
+        ax.plot(steps, [100 * float(r["success_rate"]) for r in evals], "o-", color="C0", label="evaluation: success")
+        ax.plot(steps, [100 * float(r["bump_rate"]) for r in evals], "s--", color="C3", label="evaluation: bumps")
+    ax.set_xlabel("env steps")
+    ax.set_ylabel("% of episodes")
+    ax.set_ylim(0, 100)
+    ax.grid(alpha=0.3)
+    ax.legend(loc="center right")
+    ax.set_title(f"PPO on PicoEscape-v0: {run_dir.name}")
+    fig.tight_layout()
+    fig.savefig(out)
+    plt.close(fig)
+    return Path(out)

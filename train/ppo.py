@@ -1,0 +1,391 @@
+"""Training PPO (stable-baselines3) on pico-gym envs from a YAML config.
+
+The config has rl-zoo3's layout for the env's block (n_envs, n_timesteps, policy, env_wrapper,
+policy_kwargs and PPO's hyper-parameters) plus a `pico-gym:` block with this pipeline's own
+settings. A run directory holds:
+
+    config.yaml        the resolved config (after command-line overrides), versions, machine
+    checkpoints/       ppo_<steps>_steps.zip every checkpoint_freq env steps
+    tb/                TensorBoard logs (rollout/, escape/ success rate, escape time, bumps; eval/)
+    progress.csv       the same figures as CSV
+    eval.csv           periodic evaluations on seeds disjoint from training's
+    model.zip/.json    the final policy (load with make_agent("ppo", env, path=...))
+    best.zip/.json     the policy of the best evaluation
+    learning_curve.png success rate vs env steps
+
+Training episodes draw their seeds from [TRAIN_SEED_MIN, 2**31), so their rooms never coincide
+with evaluation seeds (EVAL_SEED_START.., and the < 1e6 seeds of bench and compare).
+"""
+
+from __future__ import annotations
+
+import copy
+import csv
+import importlib
+import json
+import os
+import platform
+import re
+import time
+from collections import deque
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import yaml
+
+import pico_gym
+from agents.base import RobotSpec
+from agents.evaluation import run_episode, summarize
+from agents.ppo import PpoAgent, save_policy
+from pico_gym.wrappers import LearningConfig
+
+TRAIN_SEED_MIN = 1_000_000
+EVAL_SEED_START = 900_000
+PICO_KEY = "pico-gym"
+PICO_DEFAULTS: dict[str, Any] = {
+    "env_kwargs": {},
+    "train_env_kwargs": {},
+    "vec_env": "dummy",
+    "torch_threads": 1,
+    "checkpoint_freq": 250_000,
+    "eval_freq": 250_000,
+    "eval_episodes": 100,
+}
+# Keys of the env block that are not PPO constructor arguments (rl-zoo3's meaning).
+ZOO_KEYS = {"n_envs", "n_timesteps", "policy", "env_wrapper", "policy_kwargs", "normalize", "frame_stack"}
+
+
+class ConfigError(ValueError):
+    """A training config that cannot be used; the message names the file and key."""
+
+
+@dataclass
+class TrainConfig:
+    """A resolved training config."""
+
+    env_id: str
+    zoo: dict[str, Any]  # the rl-zoo3 block
+    pico: dict[str, Any]  # pico-gym's block, defaults filled in
+    source: str = ""
+
+    @property
+    def learning(self) -> LearningConfig:
+        """The PicoLearningWrapper settings of the env_wrapper list."""
+        for entry in self.zoo.get("env_wrapper") or []:
+            name, kwargs = _wrapper_entry(entry)
+            if name.endswith("PicoLearningWrapper"):
+                return LearningConfig(**(kwargs or {}))
+        raise ConfigError(f"{self.source}: env_wrapper must include pico_gym.wrappers.PicoLearningWrapper")
+
+    def to_yaml(self, extra: dict[str, Any] | None = None) -> str:
+        return yaml.safe_dump({self.env_id: self.zoo, PICO_KEY: self.pico, **(extra or {})}, sort_keys=False)
+
+
+def _wrapper_entry(entry: Any) -> tuple[str, dict[str, Any] | None]:
+    if isinstance(entry, str):
+        return entry, None
+    if isinstance(entry, dict) and len(entry) == 1:
+        ((name, kwargs),) = entry.items()
+        return name, kwargs
+    raise ConfigError(f"env_wrapper entries are 'module.Class' or {{module.Class: {{kwargs}}}}, got {entry!r}")
+
+
+def load_config(path: str | Path, env_id: str = "PicoEscape-v0") -> TrainConfig:
+    """Read a training YAML; errors name the file and the key."""
+    path = Path(path)
+    try:
+        data = yaml.safe_load(path.read_text())
+    except FileNotFoundError:
+        raise ConfigError(f"no training config at {path}") from None
+    except yaml.YAMLError as exc:
+        raise ConfigError(f"{path}: not valid YAML ({exc})") from None
+    if not isinstance(data, dict) or env_id not in data:
+        raise ConfigError(f"{path}: no block for {env_id!r} (rl-zoo3 layout: a top-level key per env id)")
+    zoo = dict(data[env_id])
+    for key in ("n_envs", "n_timesteps", "policy", "env_wrapper"):
+        if key not in zoo:
+            raise ConfigError(f"{path}: {env_id}.{key} is missing")
+    pico = dict(PICO_DEFAULTS)
+    unknown = set(data.get(PICO_KEY) or {}) - set(PICO_DEFAULTS)
+    if unknown:
+        raise ConfigError(f"{path}: unknown key(s) {sorted(unknown)} in {PICO_KEY}; known: {sorted(PICO_DEFAULTS)}")
+    pico.update(data.get(PICO_KEY) or {})
+    if pico["vec_env"] not in ("dummy", "subproc"):
+        raise ConfigError(f"{path}: {PICO_KEY}.vec_env must be 'dummy' or 'subproc', got {pico['vec_env']!r}")
+    config = TrainConfig(env_id, zoo, pico, str(path))
+    config.learning  # noqa: B018  (validates the wrapper entry now, not after minutes of setup)
+    return config
+
+
+def _policy_kwargs(text: str | dict[str, Any] | None, source: str) -> dict[str, Any]:
+    """rl-zoo3 writes policy_kwargs as a Python expression, e.g. "dict(net_arch=[64, 64])"."""
+    if text is None:
+        return {}
+    if isinstance(text, dict):
+        return text
+    import torch
+
+    try:
+        value = eval(text, {"__builtins__": {}}, {"dict": dict, "nn": torch.nn})  # trusted config file
+    except Exception as exc:
+        raise ConfigError(f"{source}: policy_kwargs {text!r} does not evaluate ({exc})") from None
+    if not isinstance(value, dict):
+        raise ConfigError(f"{source}: policy_kwargs must give a dict, got {value!r}")
+    return value
+
+
+# --- envs -----------------------------------------------------------------------------------
+class EpisodeSeeds(gym.Wrapper):
+    """Reset every episode with a fresh seed from [TRAIN_SEED_MIN, 2**31), drawn from `rng`."""
+
+    def __init__(self, env: gym.Env, rng: np.random.Generator) -> None:
+        super().__init__(env)
+        self.rng = rng
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> Any:
+        return self.env.reset(seed=int(self.rng.integers(TRAIN_SEED_MIN, 2**31)), options=options)
+
+
+def _apply_wrappers(env: gym.Env, entries: list[Any]) -> gym.Env:
+    for entry in entries:
+        name, kwargs = _wrapper_entry(entry)
+        module, _, cls = name.rpartition(".")
+        env = getattr(importlib.import_module(module), cls)(env, **(kwargs or {}))
+    return env
+
+
+def make_env(config: TrainConfig, rng: np.random.Generator) -> gym.Env:
+    """One training env: the env, per-episode training seeds, the config's wrappers, a Monitor."""
+    from stable_baselines3.common.monitor import Monitor
+
+    env = gym.make(config.env_id, **{**config.pico["env_kwargs"], **config.pico["train_env_kwargs"]})
+    env = EpisodeSeeds(env, rng)
+    return Monitor(_apply_wrappers(env, config.zoo["env_wrapper"]))
+
+
+def make_vec_env(config: TrainConfig, seed: int, stream: int = 0) -> Any:
+    """The training VecEnv; env i's seeds come from Generator((seed, i, stream))."""
+    from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
+
+    n = int(config.zoo["n_envs"])
+    factories = [(lambda i=i: make_env(config, np.random.default_rng([seed, i, stream]))) for i in range(n)]
+    return SubprocVecEnv(factories) if config.pico["vec_env"] == "subproc" else DummyVecEnv(factories)
+
+
+# --- callbacks ------------------------------------------------------------------------------
+def _callbacks() -> Any:
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    class EscapeStats(BaseCallback):
+        """Logs success rate, escape time and bumps over the last 100 finished training episodes."""
+
+        def __init__(self) -> None:
+            super().__init__()
+            self.episodes: deque[tuple[bool, float, int, str]] = deque(maxlen=100)
+
+        def _on_step(self) -> bool:
+            for done, info in zip(self.locals["dones"], self.locals["infos"], strict=True):
+                if done:
+                    self.episodes.append(
+                        (
+                            bool(info["is_success"]),
+                            float(info["sim_time"]),
+                            int(info["bumps"]),
+                            str(info["termination_reason"]),
+                        )
+                    )
+            return True
+
+        def _on_rollout_end(self) -> None:
+            if not self.episodes:
+                return
+            eps = self.episodes
+            times = [t for ok, t, _, _ in eps if ok]
+            self.logger.record("escape/success_rate", float(np.mean([ok for ok, _, _, _ in eps])))
+            self.logger.record("escape/bump_rate", float(np.mean([b > 0 for _, _, b, _ in eps])))
+            self.logger.record("escape/timeout_rate", float(np.mean([r == "timeout" for *_, r in eps])))
+            self.logger.record("escape/idle_rate", float(np.mean([r == "idle" for *_, r in eps])))
+            if times:
+                self.logger.record("escape/escape_time_median_s", float(np.median(times)))
+
+    class PeriodicEval(BaseCallback):
+        """Every `freq` env steps: the deterministic policy on fixed evaluation seeds; keeps the best."""
+
+        def __init__(self, config: TrainConfig, run_dir: Path, freq: int, episodes: int) -> None:
+            super().__init__()
+            self.config, self.run_dir, self.freq, self.episodes = config, run_dir, freq, episodes
+            self.next_at = 0
+            self.best = -np.inf
+            self.env = gym.make(config.env_id, **config.pico["env_kwargs"])
+            self.csv = run_dir / "eval.csv"
+
+        def _on_training_start(self) -> None:
+            self.next_at = (self.num_timesteps // self.freq + 1) * self.freq
+            if self.csv.exists():
+                rows = list(csv.DictReader(self.csv.open()))
+                self.best = max((float(r["score"]) for r in rows), default=-np.inf)
+
+        def _on_step(self) -> bool:
+            if self.num_timesteps >= self.next_at:
+                self.next_at += self.freq
+                self.evaluate()
+            return True
+
+        def evaluate(self) -> dict[str, float]:
+            learning = self.config.learning
+            agent = PpoAgent(RobotSpec.of(self.env), model=self.model, learning=learning)
+            seeds = range(EVAL_SEED_START, EVAL_SEED_START + self.episodes)
+            s = summarize([run_episode(self.env, agent, seed, "ppo") for seed in seeds])
+            score = s.success_rate - s.bump_rate  # bumps end episodes too; count them twice
+            row = {
+                "timesteps": self.num_timesteps,
+                "wall_clock_s": round(time.time() - self.model.start_time / 1e9, 1),
+                "success_rate": s.success_rate,
+                "bump_rate": s.bump_rate,
+                "timeout": s.timeout,
+                "idle": s.idle,
+                "escape_time_median_s": s.escape_time_median_s,
+                "sct_median": s.sct_median,
+                "score": score,
+            }
+            for key in ("success_rate", "bump_rate", "escape_time_median_s", "sct_median"):
+                self.logger.record(f"eval/{key}", row[key])
+            new = not self.csv.exists()
+            with self.csv.open("a", newline="") as f:
+                writer = csv.DictWriter(f, fieldnames=list(row))
+                if new:
+                    writer.writeheader()
+                writer.writerow(row)
+            if score > self.best:
+                self.best = score
+                save_policy(
+                    self.model,
+                    self.run_dir / "best",
+                    learning,
+                    env_id=self.config.env_id,
+                    env_kwargs=self.config.pico["env_kwargs"],
+                    timesteps=self.num_timesteps,
+                )
+            return row
+
+    return EscapeStats, PeriodicEval
+
+
+# --- the run --------------------------------------------------------------------------------
+def latest_checkpoint(run_dir: Path) -> tuple[Path, int] | None:
+    """The checkpoint with the most env steps in `run_dir/checkpoints`, if any."""
+    found = []
+    for p in (run_dir / "checkpoints").glob("ppo_*_steps.zip"):
+        m = re.fullmatch(r"ppo_(\d+)_steps\.zip", p.name)
+        if m:
+            found.append((int(m.group(1)), p))
+    if not found:
+        return None
+    steps, path = max(found)
+    return path, steps
+
+
+def _versions() -> dict[str, str]:
+    import stable_baselines3
+    import torch
+
+    return {
+        "pico-gym": pico_gym.__version__,
+        "stable-baselines3": str(stable_baselines3.__version__),
+        "torch": str(torch.__version__),
+        "gymnasium": gym.__version__,
+        "python": platform.python_version(),
+        "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores",
+    }
+
+
+def train(
+    config: TrainConfig,
+    run_dir: str | Path,
+    timesteps: int | None = None,
+    seed: int = 0,
+    progress_bar: bool = True,
+    verbose: int = 0,
+) -> Path:
+    """Train (or resume, if `run_dir` has checkpoints) and return the final policy's path."""
+    import torch
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback
+    from stable_baselines3.common.logger import configure
+
+    run_dir = Path(run_dir)
+    run_dir.mkdir(parents=True, exist_ok=True)
+    torch.set_num_threads(int(config.pico["torch_threads"]))
+    total = int(timesteps if timesteps is not None else float(config.zoo["n_timesteps"]))
+    resumed = latest_checkpoint(run_dir)
+    zoo = copy.deepcopy(config.zoo)
+    zoo["n_timesteps"] = total
+    resolved = TrainConfig(config.env_id, zoo, config.pico, config.source)
+    (run_dir / "config.yaml").write_text(
+        resolved.to_yaml({"run": {"seed": seed, "config_file": config.source, "versions": _versions()}})
+    )
+    # A resumed run draws fresh training seeds (stream = steps done), not the ones already used.
+    vec_env = make_vec_env(config, seed, stream=resumed[1] if resumed else 0)
+    if resumed:
+        model = PPO.load(resumed[0], env=vec_env, device="cpu")
+        print(f"resuming {run_dir} from {resumed[0].name} ({resumed[1]:,} of {total:,} steps)")
+    else:
+        hyper = {k: v for k, v in zoo.items() if k not in ZOO_KEYS}
+        model = PPO(
+            zoo["policy"],
+            vec_env,
+            policy_kwargs=_policy_kwargs(zoo.get("policy_kwargs"), config.source),
+            seed=seed,
+            device="cpu",
+            verbose=verbose,
+            **{k: float(v) if isinstance(v, str) and _is_number(v) else v for k, v in hyper.items()},
+        )
+    model.set_logger(configure(str(run_dir / "tb"), ["csv", "tensorboard"]))
+    EscapeStats, PeriodicEval = _callbacks()
+    n_envs = int(zoo["n_envs"])
+    callbacks = [
+        EscapeStats(),
+        CheckpointCallback(max(int(config.pico["checkpoint_freq"]) // n_envs, 1), str(run_dir / "checkpoints"), "ppo"),
+        PeriodicEval(config, run_dir, int(config.pico["eval_freq"]), int(config.pico["eval_episodes"])),
+    ]
+    remaining = total - model.num_timesteps
+    if remaining > 0:
+        model.learn(
+            remaining, callback=CallbackList(callbacks), reset_num_timesteps=not resumed, progress_bar=progress_bar
+        )
+    vec_env.close()
+    final = save_policy(
+        model,
+        run_dir / "model",
+        config.learning,
+        env_id=config.env_id,
+        env_kwargs=config.pico["env_kwargs"],
+        timesteps=model.num_timesteps,
+        seed=seed,
+    )
+    _copy_progress(run_dir)
+    try:
+        from train.plots import plot_learning_curve
+
+        plot_learning_curve(run_dir, run_dir / "learning_curve.png")
+    except ImportError:
+        pass
+    (run_dir / "done.json").write_text(json.dumps({"timesteps": model.num_timesteps}) + "\n")
+    return final
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def _copy_progress(run_dir: Path) -> None:
+    src = run_dir / "tb" / "progress.csv"
+    if src.exists():
+        (run_dir / "progress.csv").write_bytes(src.read_bytes())
