@@ -46,14 +46,17 @@ def sector_starts(n_beams: int, n_sectors: int) -> np.ndarray:
     return (np.arange(n_sectors) * n_beams) // n_sectors
 
 
-def min_pool(ranges: np.ndarray, starts: np.ndarray, range_max: float, normalize: bool = True) -> np.ndarray:
-    """Each sector's minimum range (0 = "no hit" in the legacy convention, so read as range_max).
+def min_pool(
+    ranges: np.ndarray, starts: np.ndarray, range_max: float, normalize: bool = True, reduce: np.ufunc = np.minimum
+) -> np.ndarray:
+    """Each sector's minimum range (0 = "no hit" in the legacy convention, so read as range_max);
+    `reduce=np.maximum` gives each sector's maximum instead.
 
     >>> min_pool(np.array([3.0, 1.0, 0.0, 5.0, 2.0, 4.0]), np.array([0, 3]), 10.0, normalize=False).tolist()
     [1.0, 2.0]
     """
     r = np.where(ranges > 0.0, ranges, range_max)
-    pooled = np.minimum.reduceat(r, starts)
+    pooled = reduce.reduceat(r, starts)
     if normalize:
         pooled = np.clip(pooled / range_max, 0.0, 1.0)
     return pooled.astype(np.float32)
@@ -86,21 +89,31 @@ def _env_config(env: gym.Env) -> Any:
 
 
 class MinPoolLrf(gym.ObservationWrapper):
-    """Down-sample `obs["lrf"]` to `n_sectors` sector minima, normalised to [0, 1] by range_max."""
+    """Down-sample `obs["lrf"]` to `n_sectors` sector minima, normalised to [0, 1] by range_max.
 
-    def __init__(self, env: gym.Env, n_sectors: int = 64, normalize: bool = True) -> None:
+    `max_pool=True` adds `obs["lrf_max"]`, the sector maxima: min-pooling is safe but hides a
+    narrow far gap (a corridor mouth across a large room) behind its sector's nearer beams.
+    """
+
+    def __init__(self, env: gym.Env, n_sectors: int = 64, normalize: bool = True, max_pool: bool = False) -> None:
         super().__init__(env)
         lrf: LrfConfig = _env_config(env).lrf
         self.starts = sector_starts(lrf.n_beams, n_sectors)
         self.range_max = lrf.range_max_m
-        self.normalize = normalize
+        self.normalize, self.max_pool = normalize, max_pool
         high = 1.0 if normalize else lrf.range_max_m
         spaces = dict(env.observation_space.spaces)
         spaces["lrf"] = gym.spaces.Box(0.0, high, (n_sectors,), np.float32)
+        if max_pool:
+            spaces["lrf_max"] = gym.spaces.Box(0.0, high, (n_sectors,), np.float32)
         self.observation_space = gym.spaces.Dict(spaces)
 
     def observation(self, observation: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-        return {**observation, "lrf": min_pool(observation["lrf"], self.starts, self.range_max, self.normalize)}
+        ranges = observation["lrf"]
+        out = {**observation, "lrf": min_pool(ranges, self.starts, self.range_max, self.normalize)}
+        if self.max_pool:
+            out["lrf_max"] = min_pool(ranges, self.starts, self.range_max, self.normalize, np.maximum)
+        return out
 
 
 class OdomVelocity(gym.Wrapper):
@@ -135,6 +148,7 @@ class LearningConfig:
 
     Attributes:
         n_sectors: LRF sectors after min-pooling.
+        max_pool: also each sector's maximum (shows narrow far gaps min-pooling hides).
         frame_stack: how many of the latest frames the policy sees (oldest first).
         odometry: "velocity" (body-frame velocity from odometry) or "none".
     """
@@ -142,6 +156,7 @@ class LearningConfig:
     n_sectors: int = 64
     frame_stack: int = 1
     odometry: Literal["velocity", "none"] = "velocity"
+    max_pool: bool = False
 
     def __post_init__(self) -> None:
         if self.frame_stack < 1:
@@ -157,7 +172,8 @@ class LearningEncoder:
     """Raw pico-gym observations -> the flat policy input of `PicoLearningWrapper` (stateful:
     call `reset` with an episode's first observation, then `encode` with each next one).
 
-    One frame is [LRF sectors..., vx, vy, w] (the last three only with odometry="velocity"); the
+    One frame is [LRF sector minima..., (sector maxima... with max_pool,) vx, vy, w] (the last
+    three only with odometry="velocity"); the
     input is the last `frame_stack` frames, oldest first, the first frame repeated at a reset
     (gymnasium's FrameStackObservation with padding "reset").
     """
@@ -167,7 +183,7 @@ class LearningEncoder:
         self.robot, self.dt = robot, dt_s
         self.range_max = lrf.range_max_m
         self.starts = sector_starts(lrf.n_beams, config.n_sectors)
-        self.frame_size = config.n_sectors + (3 if config.odometry == "velocity" else 0)
+        self.frame_size = config.n_sectors * (2 if config.max_pool else 1) + (3 if config.odometry == "velocity" else 0)
         low = np.zeros(self.frame_size, np.float32)
         high = np.ones(self.frame_size, np.float32)
         if config.odometry == "velocity":
@@ -178,8 +194,12 @@ class LearningEncoder:
         self._previous: np.ndarray | None = None
 
     def _frame(self, obs: dict[str, np.ndarray], velocity: np.ndarray) -> np.ndarray:
-        lrf = min_pool(obs["lrf"], self.starts, self.range_max)
-        return np.concatenate([lrf, velocity]) if self.config.odometry == "velocity" else lrf
+        parts = [min_pool(obs["lrf"], self.starts, self.range_max)]
+        if self.config.max_pool:
+            parts.append(min_pool(obs["lrf"], self.starts, self.range_max, reduce=np.maximum))
+        if self.config.odometry == "velocity":
+            parts.append(velocity)
+        return np.concatenate(parts)
 
     def reset(self, obs: dict[str, np.ndarray]) -> np.ndarray:
         self._previous = np.asarray(obs["odom"])
@@ -205,11 +225,18 @@ class PicoLearningWrapper(gym.Wrapper):
     FlattenObservation -> RescaleAction(-1, 1) (tested), in one pass per step.
     """
 
-    def __init__(self, env: gym.Env, n_sectors: int = 64, frame_stack: int = 1, odometry: str = "velocity") -> None:
+    def __init__(
+        self,
+        env: gym.Env,
+        n_sectors: int = 64,
+        frame_stack: int = 1,
+        odometry: str = "velocity",
+        max_pool: bool = False,
+    ) -> None:
         config = _env_config(env)
         ones = np.ones(env.action_space.shape, np.float32)
         super().__init__(gym.wrappers.RescaleAction(env, -ones, ones))
-        self.learning = LearningConfig(n_sectors, frame_stack, odometry)  # type: ignore[arg-type]
+        self.learning = LearningConfig(n_sectors, frame_stack, odometry, max_pool)  # type: ignore[arg-type]
         self.encoder = LearningEncoder(config.lrf, config.robot, config.dt_s, self.learning)
         self.observation_space = self.encoder.space
 

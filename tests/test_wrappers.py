@@ -41,6 +41,8 @@ def test_min_pool_is_the_sector_minimum():
     ranges[500] = 0.3
     pooled = min_pool(ranges, starts, 10.0)
     assert pooled.min() == pytest.approx(0.03) and np.sum(pooled < 0.5) == 1
+    # Max-pooling shows what min-pooling hides: a far gap inside a sector of near beams.
+    assert min_pool(ranges, starts, 10.0, reduce=np.maximum).max() == pytest.approx(0.8)
     # The legacy "0 = no hit" reads as range_max, not as an obstacle at 0 m.
     assert min_pool(np.zeros(10), np.array([0, 5]), 10.0).tolist() == [1.0, 1.0]
 
@@ -79,14 +81,17 @@ def test_learning_wrapper_shapes_and_bounds(n_sectors, frame_stack):
             obs, _ = env.reset()
 
 
-def test_learning_wrapper_equals_the_chain_of_standard_wrappers():
+@pytest.mark.parametrize("max_pool", [False, True])
+def test_learning_wrapper_equals_the_chain_of_standard_wrappers(max_pool):
     def chain():
         env = gym.make("PicoEscape-v0", noise_m=0.02, slip_std=0.05)
-        env = FlattenObservation(OdomVelocity(MinPoolLrf(env, n_sectors=32)))
+        env = FlattenObservation(OdomVelocity(MinPoolLrf(env, n_sectors=32, max_pool=max_pool)))
         env = FlattenObservation(FrameStackObservation(env, 3))
         return RescaleAction(env, -1.0, 1.0)
 
-    a, b = chain(), PicoLearningWrapper(gym.make("PicoEscape-v0", noise_m=0.02, slip_std=0.05), 32, 3)
+    env = gym.make("PicoEscape-v0", noise_m=0.02, slip_std=0.05)
+    a, b = chain(), PicoLearningWrapper(env, 32, 3, max_pool=max_pool)
+    assert a.observation_space.shape == b.observation_space.shape
     oa, _ = a.reset(seed=11)
     ob, _ = b.reset(seed=11)
     rng = np.random.default_rng(1)

@@ -316,6 +316,7 @@ def train(
     from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback
     from stable_baselines3.common.logger import configure
 
+    started = time.perf_counter()
     run_dir = Path(run_dir)
     run_dir.mkdir(parents=True, exist_ok=True)
     torch.set_num_threads(int(config.pico["torch_threads"]))
@@ -373,7 +374,10 @@ def train(
         plot_learning_curve(run_dir, run_dir / "learning_curve.png")
     except ImportError:
         pass
-    (run_dir / "done.json").write_text(json.dumps({"timesteps": model.num_timesteps}) + "\n")
+    done = run_dir / "done.json"
+    before = json.loads(done.read_text()).get("wall_clock_s", 0.0) if done.exists() else 0.0
+    elapsed = round(before + time.perf_counter() - started, 1)  # over every session of the run
+    done.write_text(json.dumps({"timesteps": model.num_timesteps, "wall_clock_s": elapsed}) + "\n")
     return final
 
 
