@@ -217,8 +217,12 @@ def plot_trajectories(
 
     agent_kwargs = agent_kwargs or {}
     picks = [(m, s) for m, seeds in episodes.groups for s in seeds][:n_rooms]
-    fig, axes = plt.subplots(1, len(picks), figsize=(4.2 * len(picks), 4.4), dpi=110, squeeze=False)
-    for ax, (map_name, seed) in zip(axes[0], picks, strict=True):
+    cols = min(3, len(picks))
+    rows = -(-len(picks) // cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 4.4 * rows), dpi=110, squeeze=False)
+    for ax in axes.flat[len(picks) :]:
+        ax.axis("off")
+    for ax, (map_name, seed) in zip(axes.flat, picks, strict=False):
         env = gym.make("PicoEscape-v0", **episodes.env_kwargs(map_name))
         world = None
         for name in agents:

@@ -43,8 +43,20 @@ def save_policy(model: Any, path: str | Path, learning: LearningConfig, **metada
     path.parent.mkdir(parents=True, exist_ok=True)
     model.save(path)
     meta = {"algo": "ppo", "learning": learning.to_dict(), **metadata}
+    norm = observation_normalizer(model)
+    if norm is not None:
+        meta["obs_norm"] = {k: v.tolist() if isinstance(v, np.ndarray) else v for k, v in norm.items()}
     policy_metadata_path(path).write_text(json.dumps(meta, indent=1, default=str) + "\n")
     return path
+
+
+def observation_normalizer(model: Any) -> dict[str, Any] | None:
+    """The running observation statistics of a model trained under VecNormalize (else None)."""
+    venv = model.get_vec_normalize_env() if hasattr(model, "get_vec_normalize_env") else None
+    if venv is None or not venv.norm_obs:
+        return None
+    rms = venv.obs_rms
+    return {"mean": rms.mean.copy(), "var": rms.var.copy(), "clip": float(venv.clip_obs), "epsilon": venv.epsilon}
 
 
 def load_policy(path: str | Path) -> tuple[Any, LearningConfig, dict[str, Any]]:
@@ -82,9 +94,17 @@ class PpoAgent(Agent):
     ) -> None:
         super().__init__(spec)
         if model is None:
-            model, learning, _ = load_policy(path or SHIPPED_MODEL)
+            model, learning, meta = load_policy(path or SHIPPED_MODEL)
+            norm = meta.get("obs_norm")
         elif learning is None:
             raise ValueError("PpoAgent(model=...) needs the LearningConfig it was trained with")
+        else:
+            norm = observation_normalizer(model)
+        # VecNormalize's transform, if the policy was trained under it: clip((x - mean) / std).
+        self._norm = None
+        if norm is not None:
+            std = np.sqrt(np.asarray(norm["var"], np.float64) + float(norm["epsilon"]))
+            self._norm = (np.asarray(norm["mean"], np.float64), std, float(norm["clip"]))
         self.model = model
         self.deterministic = deterministic
         self.encoder = LearningEncoder(spec.lrf, spec.robot, spec.dt_s, learning)
@@ -105,5 +125,8 @@ class PpoAgent(Agent):
             x, self._first = self._first, None
         else:
             x = self.encoder.encode(obs)
+        if self._norm is not None:
+            mean, std, clip = self._norm
+            x = np.clip((x - mean) / std, -clip, clip).astype(np.float32)
         unit, _ = self.model.predict(x, deterministic=self.deterministic)
         return rescale_action(unit, self._low, self._high)

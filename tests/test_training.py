@@ -1,5 +1,7 @@
 """Training smoke tests: a few thousand PPO steps run, save, load, act, resume; configs are checked."""
 
+import json
+import pickle
 from pathlib import Path
 
 import gymnasium as gym
@@ -20,6 +22,7 @@ PicoEscape-v0:
   n_envs: 2
   n_timesteps: 2048
   policy: 'MlpPolicy'
+  normalize: true
   env_wrapper:
     - pico_gym.wrappers.PicoLearningWrapper:
         n_sectors: 16
@@ -72,10 +75,17 @@ def test_train_save_load_act_and_resume(tiny_config, tmp_path):
     action = agent.act(obs)
     assert env.action_space.contains(action.astype(np.float32))
 
-    # Resuming continues from the last checkpoint to the new total.
+    # Resuming continues from the last checkpoint (and its VecNormalize statistics) to the new total.
     train(tiny_config, run, timesteps=3072, seed=0, progress_bar=False)
     assert latest_checkpoint(run)[1] == 3072
     assert '"timesteps": 3072' in (run / "done.json").read_text()
+
+    # The policy carries the observation statistics it was trained with; the agent applies them.
+    meta = json.loads((run / "model.json").read_text())
+    with (run / "checkpoints" / "ppo_vecnormalize_3072_steps.pkl").open("rb") as f:
+        stats = pickle.load(f)  # SB3's own VecNormalize save
+    np.testing.assert_allclose(meta["obs_norm"]["mean"], stats.obs_rms.mean)
+    np.testing.assert_allclose(meta["obs_norm"]["var"], stats.obs_rms.var)
 
 
 def test_a_policy_for_another_robot_is_refused(tiny_config, tmp_path):

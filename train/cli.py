@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import shlex
 import sys
 import time
 from pathlib import Path
@@ -27,7 +28,8 @@ def cmd_train(args: argparse.Namespace) -> int:
         return 2
     out = Path(args.out or f"runs/{Path(args.config).stem}_seed{args.seed}")
     start = time.perf_counter()
-    path = train(config, out, args.timesteps, args.seed, progress_bar=not args.no_progress)
+    command = shlex.join(["pico-gym", *sys.argv[1:]])
+    path = train(config, out, args.timesteps, args.seed, progress_bar=not args.no_progress, command=command)
     print(f"wrote {path} ({(time.perf_counter() - start) / 60:.1f} min); run directory {out}")
     return 0
 

@@ -309,6 +309,7 @@ def train(
     seed: int = 0,
     progress_bar: bool = True,
     verbose: int = 0,
+    command: str = "",
 ) -> Path:
     """Train (or resume, if `run_dir` has checkpoints) and return the final policy's path."""
     import torch
@@ -326,10 +327,21 @@ def train(
     zoo["n_timesteps"] = total
     resolved = TrainConfig(config.env_id, zoo, config.pico, config.source)
     (run_dir / "config.yaml").write_text(
-        resolved.to_yaml({"run": {"seed": seed, "config_file": config.source, "versions": _versions()}})
+        resolved.to_yaml(
+            {"run": {"seed": seed, "command": command, "config_file": config.source, "versions": _versions()}}
+        )
     )
     # A resumed run draws fresh training seeds (stream = steps done), not the ones already used.
     vec_env = make_vec_env(config, seed, stream=resumed[1] if resumed else 0)
+    norm = _normalize_kwargs(zoo.get("normalize"), config.source)
+    if norm is not None:
+        from stable_baselines3.common.vec_env import VecNormalize
+
+        stats = resumed and run_dir / "checkpoints" / f"ppo_vecnormalize_{resumed[1]}_steps.pkl"
+        if stats and stats.exists():
+            vec_env = VecNormalize.load(str(stats), vec_env)
+        else:
+            vec_env = VecNormalize(vec_env, gamma=float(zoo.get("gamma", 0.99)), **norm)
     if resumed:
         model = PPO.load(resumed[0], env=vec_env, device="cpu")
         print(f"resuming {run_dir} from {resumed[0].name} ({resumed[1]:,} of {total:,} steps)")
@@ -349,7 +361,12 @@ def train(
     n_envs = int(zoo["n_envs"])
     callbacks = [
         EscapeStats(),
-        CheckpointCallback(max(int(config.pico["checkpoint_freq"]) // n_envs, 1), str(run_dir / "checkpoints"), "ppo"),
+        CheckpointCallback(
+            max(int(config.pico["checkpoint_freq"]) // n_envs, 1),
+            str(run_dir / "checkpoints"),
+            "ppo",
+            save_vecnormalize=norm is not None,
+        ),
         PeriodicEval(config, run_dir, int(config.pico["eval_freq"]), int(config.pico["eval_episodes"])),
     ]
     remaining = total - model.num_timesteps
@@ -379,6 +396,18 @@ def train(
     elapsed = round(before + time.perf_counter() - started, 1)  # over every session of the run
     done.write_text(json.dumps({"timesteps": model.num_timesteps, "wall_clock_s": elapsed}) + "\n")
     return final
+
+
+def _normalize_kwargs(value: Any, source: str) -> dict[str, Any] | None:
+    """rl-zoo3's `normalize`: true, false, or a dict expression of VecNormalize arguments."""
+    if value in (None, False):
+        return None
+    if value is True:
+        return {}
+    kwargs = _policy_kwargs(value, source) if isinstance(value, str) else value
+    if not isinstance(kwargs, dict):
+        raise ConfigError(f"{source}: normalize must be true, false or a dict of VecNormalize arguments")
+    return kwargs
 
 
 def _is_number(text: str) -> bool:

@@ -1,0 +1,35 @@
+"""The shipped PPO policy loads and reproduces its model card's check episodes."""
+
+import json
+
+import gymnasium as gym
+import pytest
+
+pytest.importorskip("stable_baselines3")
+
+import pico_gym  # noqa: E402,F401
+from agents import make_agent  # noqa: E402
+from agents.evaluation import run_episode  # noqa: E402
+from agents.ppo import SHIPPED_MODEL, policy_metadata_path  # noqa: E402
+
+
+def test_shipped_model_is_small_and_documented():
+    assert SHIPPED_MODEL.is_file(), "the PPO agent's policy is not shipped"
+    assert SHIPPED_MODEL.stat().st_size < 5e6
+    card = (SHIPPED_MODEL.parent / "MODEL_CARD.md").read_text()
+    meta = json.loads(policy_metadata_path(SHIPPED_MODEL).read_text())
+    generated = meta["evaluation"]["generated"]
+    assert f"{100 * generated['success_rate']:.1f} %" in card
+    assert "pico-gym train" in card
+
+
+def test_shipped_model_reproduces_its_card():
+    meta = json.loads(policy_metadata_path(SHIPPED_MODEL).read_text())
+    check = meta["check"]
+    env = gym.make("PicoEscape-v0", **(meta.get("env_kwargs") or {}))
+    agent = make_agent("ppo", env)
+    records = [run_episode(env, agent, seed, "ppo") for seed in check["seeds"]]
+    successes = sum(r.success for r in records)
+    # Same seeds, same episodes; the tolerance covers float differences of other CPUs/torch builds.
+    assert abs(successes - sum(check["success"])) <= max(1, len(records) // 10)
+    assert abs(sum(r.bumps > 0 for r in records) - sum(b > 0 for b in check["bumps"])) <= max(1, len(records) // 10)

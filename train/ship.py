@@ -1,0 +1,134 @@
+"""Ship a trained policy as the PPO agent's default, with a model card of measured numbers.
+
+    python -m train.ship runs/ppo_escape_seed0/best.zip [--episodes 500] [--seed 1000]
+
+copies the policy to agents/models/ppo_escape.{zip,json}, evaluates it with `pico-gym bench`'s
+machinery on generated rooms it never trained on (and, for the realism row, with LRF noise doubled
+and odometry slip), and writes agents/models/MODEL_CARD.md. The JSON keeps the card's numbers and
+a short check (`check`: the first seeds' results) that tests/test_ppo_model.py reproduces.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+import sys
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from agents.evaluation import Summary, run_episodes, summarize
+from agents.ppo import SHIPPED_MODEL, policy_metadata_path
+
+CHECK_EPISODES = 20
+REALISM = {"noise_m": 0.02, "slip_std": 0.05}
+
+
+def _evaluate(path: Path, seeds: range, env_kwargs: dict[str, Any]) -> tuple[Summary, list[Any]]:
+    from tqdm import tqdm
+
+    with tqdm(total=len(seeds), desc="ppo", unit="ep", file=sys.stderr) as bar:
+        records = run_episodes("ppo", seeds, env_kwargs, {"path": str(path)}, progress=bar.update)
+    return summarize(records), records
+
+
+def _row(name: str, s: Summary) -> str:
+    return (
+        f"| {name} | {s.episodes} | {100 * s.success_rate:.1f} % | {100 * s.bump_rate:.1f} % | {s.idle} / "
+        f"{s.timeout} | {s.escape_time_median_s:.1f} s / {s.escape_time_p90_s:.1f} s | {s.spl:.3f} | "
+        f"{s.sct_median:.3f} | {s.act_ms_median:.2f} ms |"
+    )
+
+
+def ship(source: Path, episodes: int, seed: int, realism: bool = True) -> Path:
+    run_dir = source.parent
+    config = yaml.safe_load((run_dir / "config.yaml").read_text())
+    done = json.loads((run_dir / "done.json").read_text()) if (run_dir / "done.json").exists() else {}
+    meta = json.loads(policy_metadata_path(source).read_text())
+    SHIPPED_MODEL.parent.mkdir(parents=True, exist_ok=True)
+    shutil.copyfile(source, SHIPPED_MODEL)
+
+    seeds = range(seed, seed + episodes)
+    summary, records = _evaluate(SHIPPED_MODEL.with_suffix(".zip"), seeds, meta.get("env_kwargs") or {})
+    rows = [_row("generated rooms", summary)]
+    evaluation = {"generated": {"seeds": [seeds[0], seeds[-1]], **summary.to_dict()}}
+    if realism:
+        hard, _ = _evaluate(SHIPPED_MODEL, seeds, {**(meta.get("env_kwargs") or {}), **REALISM})
+        rows.append(_row("noise x2 + slip", hard))
+        evaluation["realism"] = {"seeds": [seeds[0], seeds[-1]], "env_kwargs": REALISM, **hard.to_dict()}
+    check = records[:CHECK_EPISODES]
+    meta.update(
+        source=str(source),
+        command=config.get("run", {}).get("command", ""),
+        train_seed=config.get("run", {}).get("seed"),
+        run_timesteps=done.get("timesteps"),
+        wall_clock_s=done.get("wall_clock_s"),
+        evaluation=evaluation,
+        check={
+            "seeds": [r.seed for r in check],
+            "success": [r.success for r in check],
+            "bumps": [r.bumps for r in check],
+        },
+    )
+    policy_metadata_path(SHIPPED_MODEL).write_text(json.dumps(meta, indent=1, default=str) + "\n")
+    _write_card(meta, config, rows, SHIPPED_MODEL.parent / "MODEL_CARD.md")
+    return SHIPPED_MODEL
+
+
+def _write_card(meta: dict[str, Any], config: dict[str, Any], rows: list[str], out: Path) -> None:
+    run = config.pop("run", {})
+    minutes = (meta.get("wall_clock_s") or 0) / 60
+    lines = [
+        "# Model card: `ppo_escape` (the PPO agent's shipped policy)",
+        "",
+        "Written by `python -m train.ship` from measured runs; do not edit the numbers by hand.",
+        "",
+        "## What it is",
+        f"- PPO (stable-baselines3 {run.get('versions', {}).get('stable-baselines3', '?')}), MLP policy, "
+        f"trained on PicoEscape-v0's generated rooms (seeds >= 1,000,000).",
+        f"- Observation: `PicoLearningWrapper` with {meta['learning']} (min-pooled LRF sectors, "
+        "odometry velocity, frame stack); actions in [-1, 1] rescaled to the robot's limits.",
+        '- Loads with `make_agent("ppo", env)`; needs stable-baselines3 and torch (the `train` extra).',
+        "",
+        "## How it was trained",
+        f"- Command: `{run.get('command') or 'pico-gym train --config train/configs/ppo_escape.yaml'}`",
+        f"- Seed: {run.get('seed')}; env steps: {meta.get('timesteps'):,} (this checkpoint; the run went to "
+        f"{meta.get('run_timesteps') or 0:,})",
+        f"- Wall-clock: {minutes:.0f} min on {run.get('versions', {}).get('machine', '?')}",
+        f"- Picked: `{Path(meta['source']).name}` of the run (best periodic evaluation on seeds 900000-900099).",
+        "",
+        "## Evaluation (rooms it never trained on; deterministic policy)",
+        "",
+        "| episodes | n | success | bump rate | idle / timeout | escape time median / p90 | SPL | SCT median |"
+        " compute per step |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|",
+        *rows,
+        "",
+        f"Seeds {meta['evaluation']['generated']['seeds'][0]}-{meta['evaluation']['generated']['seeds'][1]}; "
+        "targets: success >= 95 %, bump rate <= 2 %.",
+        "",
+        "## Config",
+        "```yaml",
+        yaml.safe_dump(config, sort_keys=False).rstrip(),
+        "```",
+        "",
+    ]
+    out.write_text("\n".join(lines))
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(prog="python -m train.ship", description=__doc__.split("\n\n")[0])
+    p.add_argument("policy", type=Path, help="a policy zip of a run directory (e.g. runs/x/best.zip)")
+    p.add_argument("--episodes", type=int, default=500)
+    p.add_argument("--seed", type=int, default=1000)
+    p.add_argument("--no-realism", action="store_true", help="skip the noise x2 + slip evaluation")
+    args = p.parse_args(argv)
+    path = ship(args.policy, args.episodes, args.seed, realism=not args.no_realism)
+    print(f"shipped {path} ({path.stat().st_size / 1e6:.1f} MB); card: {path.parent / 'MODEL_CARD.md'}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
