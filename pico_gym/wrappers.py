@@ -116,6 +116,63 @@ class MinPoolLrf(gym.ObservationWrapper):
         return out
 
 
+class RangeMemory:
+    """The farthest range last seen in each of `n_bins` directions all around, kept in the
+    odometry frame and read in the body frame (bin 0 = straight behind, counter-clockwise): a
+    360-degree memory of the 229-degree LRF, so a corridor mouth seen once stays known after the
+    robot turns away from it. Bins never seen read 0.
+    """
+
+    def __init__(self, beam_angles: np.ndarray, n_bins: int, range_max: float) -> None:
+        if n_bins < 4:
+            raise ValueError(f"memory_sectors must be >= 4 (or 0 for none), got {n_bins}")
+        self.beam_angles = np.asarray(beam_angles, np.float64)
+        self.width = 2.0 * math.pi / n_bins
+        self.centres = -math.pi + (np.arange(n_bins) + 0.5) * self.width
+        self.range_max = range_max
+        self.memory = np.zeros(n_bins)
+
+    def reset(self) -> None:
+        self.memory[:] = 0.0
+
+    def _bins(self, angles: np.ndarray) -> np.ndarray:
+        return (np.mod(angles, 2.0 * math.pi) // self.width).astype(np.intp) % len(self.memory)
+
+    def update(self, ranges: np.ndarray, heading: float) -> np.ndarray:
+        """Store a scan taken at odometry heading `heading`; the memory in the body frame, in [0, 1]."""
+        r = np.where(ranges > 0.0, ranges, self.range_max)
+        current = np.full(len(self.memory), -1.0)
+        np.maximum.at(current, self._bins(heading + self.beam_angles), r)
+        seen = current >= 0.0
+        self.memory[seen] = current[seen]
+        return (self.memory[self._bins(heading + self.centres)] / self.range_max).astype(np.float32)
+
+
+class LrfMemory(gym.Wrapper):
+    """Add `obs["lrf_memory"]`: a `RangeMemory` of `n_bins` directions (apply before wrappers that
+    replace `obs["lrf"]` or `obs["odom"]`)."""
+
+    def __init__(self, env: gym.Env, n_bins: int = 36) -> None:
+        super().__init__(env)
+        lrf: LrfConfig = _env_config(env).lrf
+        self.memory = RangeMemory(lrf.beam_angles, n_bins, lrf.range_max_m)
+        spaces = dict(env.observation_space.spaces)
+        spaces["lrf_memory"] = gym.spaces.Box(0.0, 1.0, (n_bins,), np.float32)
+        self.observation_space = gym.spaces.Dict(spaces)
+
+    def _add(self, obs: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        return {**obs, "lrf_memory": self.memory.update(obs["lrf"], float(obs["odom"][2]))}
+
+    def reset(self, **kwargs: Any) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        obs, info = self.env.reset(**kwargs)
+        self.memory.reset()
+        return self._add(obs), info
+
+    def step(self, action: Any) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
+        obs, reward, terminated, truncated, info = self.env.step(action)
+        return self._add(obs), reward, terminated, truncated, info
+
+
 class OdomVelocity(gym.Wrapper):
     """Replace `obs["odom"]` (a pose) with the body-frame velocity it implies, in units of the
     robot's limits (vx / v_max, vy / v_max, w / w_max); zero on reset."""
@@ -149,6 +206,7 @@ class LearningConfig:
     Attributes:
         n_sectors: LRF sectors after min-pooling.
         max_pool: also each sector's maximum (shows narrow far gaps min-pooling hides).
+        memory_sectors: bins of a 360-degree `RangeMemory` (0: none).
         frame_stack: how many of the latest frames the policy sees (oldest first).
         odometry: "velocity" (body-frame velocity from odometry) or "none".
     """
@@ -157,6 +215,7 @@ class LearningConfig:
     frame_stack: int = 1
     odometry: Literal["velocity", "none"] = "velocity"
     max_pool: bool = False
+    memory_sectors: int = 0
 
     def __post_init__(self) -> None:
         if self.frame_stack < 1:
@@ -172,9 +231,8 @@ class LearningEncoder:
     """Raw pico-gym observations -> the flat policy input of `PicoLearningWrapper` (stateful:
     call `reset` with an episode's first observation, then `encode` with each next one).
 
-    One frame is [LRF sector minima..., (sector maxima... with max_pool,) vx, vy, w] (the last
-    three only with odometry="velocity"); the
-    input is the last `frame_stack` frames, oldest first, the first frame repeated at a reset
+    One frame is [LRF sector minima..., (sector maxima... with max_pool,) (range memory... with
+    memory_sectors,) vx, vy, w] (the last three only with odometry="velocity"); the input is the last `frame_stack` frames, oldest first, the first frame repeated at a reset
     (gymnasium's FrameStackObservation with padding "reset").
     """
 
@@ -183,7 +241,14 @@ class LearningEncoder:
         self.robot, self.dt = robot, dt_s
         self.range_max = lrf.range_max_m
         self.starts = sector_starts(lrf.n_beams, config.n_sectors)
-        self.frame_size = config.n_sectors * (2 if config.max_pool else 1) + (3 if config.odometry == "velocity" else 0)
+        self.memory = (
+            RangeMemory(lrf.beam_angles, config.memory_sectors, lrf.range_max_m) if config.memory_sectors else None
+        )
+        self.frame_size = (
+            config.n_sectors * (2 if config.max_pool else 1)
+            + config.memory_sectors
+            + (3 if config.odometry == "velocity" else 0)
+        )
         low = np.zeros(self.frame_size, np.float32)
         high = np.ones(self.frame_size, np.float32)
         if config.odometry == "velocity":
@@ -197,12 +262,16 @@ class LearningEncoder:
         parts = [min_pool(obs["lrf"], self.starts, self.range_max)]
         if self.config.max_pool:
             parts.append(min_pool(obs["lrf"], self.starts, self.range_max, reduce=np.maximum))
+        if self.memory is not None:
+            parts.append(self.memory.update(obs["lrf"], float(obs["odom"][2])))
         if self.config.odometry == "velocity":
             parts.append(velocity)
         return np.concatenate(parts)
 
     def reset(self, obs: dict[str, np.ndarray]) -> np.ndarray:
         self._previous = np.asarray(obs["odom"])
+        if self.memory is not None:
+            self.memory.reset()
         frame = self._frame(obs, np.zeros(3, np.float32))
         self._frames.clear()
         self._frames.extend([frame] * self.config.frame_stack)
@@ -232,11 +301,12 @@ class PicoLearningWrapper(gym.Wrapper):
         frame_stack: int = 1,
         odometry: str = "velocity",
         max_pool: bool = False,
+        memory_sectors: int = 0,
     ) -> None:
         config = _env_config(env)
         ones = np.ones(env.action_space.shape, np.float32)
         super().__init__(gym.wrappers.RescaleAction(env, -ones, ones))
-        self.learning = LearningConfig(n_sectors, frame_stack, odometry, max_pool)  # type: ignore[arg-type]
+        self.learning = LearningConfig(n_sectors, frame_stack, odometry, max_pool, memory_sectors)  # type: ignore[arg-type]
         self.encoder = LearningEncoder(config.lrf, config.robot, config.dt_s, self.learning)
         self.observation_space = self.encoder.space
 

@@ -9,9 +9,11 @@ from gymnasium.wrappers import FlattenObservation, FrameStackObservation, Rescal
 import pico_gym  # noqa: F401
 from pico_gym.wrappers import (
     LearningConfig,
+    LrfMemory,
     MinPoolLrf,
     OdomVelocity,
     PicoLearningWrapper,
+    RangeMemory,
     min_pool,
     rescale_action,
     sector_starts,
@@ -81,16 +83,18 @@ def test_learning_wrapper_shapes_and_bounds(n_sectors, frame_stack):
             obs, _ = env.reset()
 
 
-@pytest.mark.parametrize("max_pool", [False, True])
-def test_learning_wrapper_equals_the_chain_of_standard_wrappers(max_pool):
+@pytest.mark.parametrize("max_pool,memory", [(False, 0), (True, 0), (False, 24)])
+def test_learning_wrapper_equals_the_chain_of_standard_wrappers(max_pool, memory):
     def chain():
         env = gym.make("PicoEscape-v0", noise_m=0.02, slip_std=0.05)
+        if memory:
+            env = LrfMemory(env, memory)
         env = FlattenObservation(OdomVelocity(MinPoolLrf(env, n_sectors=32, max_pool=max_pool)))
         env = FlattenObservation(FrameStackObservation(env, 3))
         return RescaleAction(env, -1.0, 1.0)
 
     env = gym.make("PicoEscape-v0", noise_m=0.02, slip_std=0.05)
-    a, b = chain(), PicoLearningWrapper(env, 32, 3, max_pool=max_pool)
+    a, b = chain(), PicoLearningWrapper(env, 32, 3, max_pool=max_pool, memory_sectors=memory)
     assert a.observation_space.shape == b.observation_space.shape
     oa, _ = a.reset(seed=11)
     ob, _ = b.reset(seed=11)
@@ -121,3 +125,21 @@ def test_bad_settings_are_named():
         LearningConfig(odometry="pose")
     with pytest.raises(TypeError, match="not a pico-gym env"):
         MinPoolLrf(gym.make("CartPole-v1"))
+
+
+def test_range_memory_remembers_what_turned_out_of_view():
+    angles = np.linspace(-2.0, 2.0, 1000)
+    memory = RangeMemory(angles, 36, 10.0)
+    ranges = np.full(1000, 2.0)
+    ranges[490:510] = 10.0  # a far gap straight ahead (heading 0)
+    body = memory.update(ranges, heading=0.0)
+    ahead = np.argmin(np.abs(memory.centres))
+    assert body[ahead] == pytest.approx(1.0) or body[ahead + 1] == pytest.approx(1.0)
+    behind = [0, 35]  # never seen: 0
+    assert body[behind].tolist() == [0.0, 0.0]
+    # Turn around (heading pi): the LRF now sees only 2 m walls, but the gap is remembered behind.
+    body = memory.update(np.full(1000, 2.0), heading=np.pi)
+    assert max(body[0], body[35]) == pytest.approx(1.0)
+    assert body[ahead] == pytest.approx(0.2)
+    with pytest.raises(ValueError, match="memory_sectors"):
+        RangeMemory(angles, 2, 10.0)
