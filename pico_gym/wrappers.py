@@ -232,8 +232,9 @@ class LearningEncoder:
     call `reset` with an episode's first observation, then `encode` with each next one).
 
     One frame is [LRF sector minima..., (sector maxima... with max_pool,) (range memory... with
-    memory_sectors,) vx, vy, w] (the last three only with odometry="velocity"); the input is the last `frame_stack` frames, oldest first, the first frame repeated at a reset
-    (gymnasium's FrameStackObservation with padding "reset").
+    memory_sectors,) vx, vy, w] (the last three only with odometry="velocity"); the input is the
+    last `frame_stack` frames, oldest first, the first frame repeated at a reset (gymnasium's
+    FrameStackObservation with padding "reset").
     """
 
     def __init__(self, lrf: LrfConfig, robot: RobotConfig, dt_s: float, config: LearningConfig) -> None:
