@@ -10,6 +10,7 @@ limits. Needs the `train` extra (stable-baselines3, torch).
 from __future__ import annotations
 
 import json
+import zlib
 from pathlib import Path
 from typing import Any
 
@@ -80,7 +81,12 @@ def load_policy(path: str | Path) -> tuple[Any, LearningConfig, dict[str, Any]]:
 
 
 class PpoAgent(Agent):
-    """Acts with a trained PPO policy (deterministic: the policy's mean action)."""
+    """Acts with a trained PPO policy.
+
+    `deterministic=True` (default) takes the policy's mean action; `False` samples from the
+    policy's Gaussian with the agent's own generator, re-seeded at each reset from `seed` and the
+    episode's first scan (so an episode plays the same wherever it runs).
+    """
 
     name = "ppo"
 
@@ -91,6 +97,7 @@ class PpoAgent(Agent):
         model: Any = None,
         learning: LearningConfig | None = None,
         deterministic: bool = True,
+        seed: int = 0,
     ) -> None:
         super().__init__(spec)
         if model is None:
@@ -107,6 +114,8 @@ class PpoAgent(Agent):
             self._norm = (np.asarray(norm["mean"], np.float64), std, float(norm["clip"]))
         self.model = model
         self.deterministic = deterministic
+        self.seed = seed
+        self.rng = np.random.default_rng(seed)
         self.encoder = LearningEncoder(spec.lrf, spec.robot, spec.dt_s, learning)
         expected = model.observation_space.shape
         if expected != self.encoder.space.shape:
@@ -119,6 +128,7 @@ class PpoAgent(Agent):
 
     def reset(self, obs: dict[str, np.ndarray], info: dict[str, Any] | None = None) -> None:
         self._first = self.encoder.reset(obs)
+        self.rng = np.random.default_rng([self.seed, zlib.crc32(np.ascontiguousarray(obs["lrf"]).tobytes())])
 
     def act(self, obs: dict[str, np.ndarray]) -> np.ndarray:
         if self._first is not None:  # the observation reset() already encoded
@@ -128,5 +138,14 @@ class PpoAgent(Agent):
         if self._norm is not None:
             mean, std, clip = self._norm
             x = np.clip((x - mean) / std, -clip, clip).astype(np.float32)
-        unit, _ = self.model.predict(x, deterministic=self.deterministic)
+        if self.deterministic:
+            unit, _ = self.model.predict(x, deterministic=True)
+        else:
+            import torch
+
+            with torch.no_grad():
+                obs_tensor, _ = self.model.policy.obs_to_tensor(x)
+                dist = self.model.policy.get_distribution(obs_tensor).distribution
+                mean, std = dist.mean.numpy()[0], dist.stddev.numpy()[0]
+            unit = mean + std * self.rng.standard_normal(mean.shape)
         return rescale_action(unit, self._low, self._high)

@@ -131,3 +131,13 @@ def test_bad_configs_name_file_and_key(tmp_path, text, match):
     with pytest.raises(ConfigError, match=match) as err:
         load_config(path)
     assert "bad.yaml" in str(err.value)
+
+
+def test_behaviour_cloning_warm_start(tmp_path):
+    path = tmp_path / "bc.yaml"
+    path.write_text(TINY.replace("  eval_episodes: 2\n", "  eval_episodes: 1\n  bc_episodes: 2\n  bc_epochs: 3\n"))
+    config = load_config(path)
+    train(config, tmp_path / "run", timesteps=512, progress_bar=False)
+    report = json.loads((tmp_path / "run" / "behaviour_cloning.json").read_text())
+    assert report["samples"] > 50 and len(report["mse_per_epoch"]) == 3
+    assert report["mse_per_epoch"][-1] < report["mse_per_epoch"][0]

@@ -53,6 +53,9 @@ PICO_DEFAULTS: dict[str, Any] = {
     "checkpoint_freq": 250_000,
     "eval_freq": 250_000,
     "eval_episodes": 100,
+    "bc_episodes": 0,
+    "bc_epochs": 10,
+    "bc_log_std": None,
 }
 # Keys of the env block that are not PPO constructor arguments (rl-zoo3's meaning).
 ZOO_KEYS = {"n_envs", "n_timesteps", "policy", "env_wrapper", "policy_kwargs", "normalize", "frame_stack"}
@@ -274,6 +277,71 @@ def _callbacks() -> Any:
     return EscapeStats, PeriodicEval
 
 
+# --- behaviour cloning ---------------------------------------------------------------------
+def collect_demonstrations(config: TrainConfig, episodes: int, teacher: str = "classic") -> tuple[Any, Any, dict]:
+    """(policy inputs, unit actions) of `teacher` on `episodes` training-seed rooms."""
+    from agents import make_agent
+    from pico_gym.wrappers import LearningEncoder
+
+    env = gym.make(config.env_id, **{**config.pico["env_kwargs"], **config.pico["train_env_kwargs"]})
+    spec = RobotSpec.of(env)
+    encoder = LearningEncoder(spec.lrf, spec.robot, spec.dt_s, config.learning)
+    agent = make_agent(teacher, env)
+    low, high = spec.robot.action_low, spec.robot.action_high
+    xs, ys, successes = [], [], 0
+    rng = np.random.default_rng([TRAIN_SEED_MIN, episodes])
+    for _ in range(episodes):
+        obs, info = env.reset(seed=int(rng.integers(TRAIN_SEED_MIN, 2**31)))
+        agent.reset(obs, info)
+        x = encoder.reset(obs)
+        while True:
+            action = np.asarray(agent.act(obs), np.float64)
+            xs.append(x)
+            ys.append(np.clip(2.0 * (action - low) / (high - low) - 1.0, -1.0, 1.0))
+            obs, _, terminated, truncated, info = env.step(action)
+            if terminated or truncated:
+                successes += bool(info["is_success"])
+                break
+            x = encoder.encode(obs)
+    return np.asarray(xs, np.float32), np.asarray(ys, np.float32), {"teacher_success": successes / episodes}
+
+
+def behaviour_clone(model: Any, config: TrainConfig, episodes: int, epochs: int) -> dict[str, Any]:
+    """Fit the policy's mean action to the classic agent's (MSE), before PPO fine-tunes it."""
+    import torch
+
+    started = time.perf_counter()
+    xs, ys, report = collect_demonstrations(config, episodes)
+    policy = model.policy
+    params = list(policy.mlp_extractor.policy_net.parameters()) + list(policy.action_net.parameters())
+    params += list(policy.features_extractor.parameters())
+    optimizer = torch.optim.Adam(params, lr=1e-3)
+    x_all, y_all = torch.as_tensor(xs), torch.as_tensor(ys)
+    generator = torch.Generator().manual_seed(0)
+    losses = []
+    for _ in range(epochs):
+        order = torch.randperm(len(x_all), generator=generator)
+        total = 0.0
+        for i in range(0, len(order), 256):
+            idx = order[i : i + 256]
+            features = policy.extract_features(x_all[idx], policy.pi_features_extractor)
+            mean = policy.action_net(policy.mlp_extractor.forward_actor(features))
+            loss = torch.nn.functional.mse_loss(mean, y_all[idx])
+            optimizer.zero_grad()
+            loss.backward()
+            optimizer.step()
+            total += loss.item() * len(idx)
+        losses.append(total / len(order))
+    report.update(
+        samples=len(xs),
+        episodes=episodes,
+        epochs=epochs,
+        mse_per_epoch=losses,
+        seconds=round(time.perf_counter() - started, 1),
+    )
+    return report
+
+
 # --- the run --------------------------------------------------------------------------------
 def latest_checkpoint(run_dir: Path) -> tuple[Path, int] | None:
     """The checkpoint with the most env steps in `run_dir/checkpoints`, if any."""
@@ -356,6 +424,12 @@ def train(
             verbose=verbose,
             **{k: float(v) if isinstance(v, str) and _is_number(v) else v for k, v in hyper.items()},
         )
+        if int(config.pico["bc_episodes"]) > 0:
+            report = behaviour_clone(model, config, int(config.pico["bc_episodes"]), int(config.pico["bc_epochs"]))
+            (run_dir / "behaviour_cloning.json").write_text(json.dumps(report, indent=1) + "\n")
+            if config.pico["bc_log_std"] is not None:
+                with torch.no_grad():
+                    model.policy.log_std.fill_(float(config.pico["bc_log_std"]))
     model.set_logger(configure(str(run_dir / "tb"), ["csv", "tensorboard"]))
     EscapeStats, PeriodicEval = _callbacks()
     n_envs = int(zoo["n_envs"])
