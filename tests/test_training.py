@@ -2,6 +2,8 @@
 
 import json
 import pickle
+import threading
+import time
 from pathlib import Path
 
 import gymnasium as gym
@@ -141,3 +143,19 @@ def test_behaviour_cloning_warm_start(tmp_path):
     report = json.loads((tmp_path / "run" / "behaviour_cloning.json").read_text())
     assert report["samples"] > 50 and len(report["mse_per_epoch"]) == 3
     assert report["mse_per_epoch"][-1] < report["mse_per_epoch"][0]
+
+
+def test_a_stop_file_ends_a_run_cleanly(tiny_config, tmp_path):
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "STOP").touch()  # a STOP left from before is removed when a run (re)starts
+
+    def stop_once_learning():
+        while not (run / "checkpoints" / "ppo_1024_steps.zip").exists():
+            time.sleep(0.05)
+        (run / "STOP").touch()
+
+    threading.Thread(target=stop_once_learning, daemon=True).start()
+    train(tiny_config, run, timesteps=100_000, progress_bar=False)
+    steps = json.loads((run / "done.json").read_text())["timesteps"]
+    assert 1024 <= steps < 100_000 and (run / "model.zip").is_file()

@@ -43,3 +43,13 @@ def plot_learning_curve(run_dir: str | Path, out: str | Path) -> Path:
     fig.savefig(out)
     plt.close(fig)
     return Path(out)
+
+
+if __name__ == "__main__":
+    import sys
+
+    run = Path(sys.argv[1])
+    tb = run / "tb" / "progress.csv"
+    if tb.exists():  # a run still going (or stopped) has its progress only in tb/
+        (run / "progress.csv").write_bytes(tb.read_bytes())
+    print(plot_learning_curve(run, sys.argv[2] if len(sys.argv) > 2 else run / "learning_curve.png"))

@@ -13,6 +13,8 @@ settings. A run directory holds:
     best.zip/.json     the policy of the best evaluation
     learning_curve.png success rate vs env steps
 
+`touch RUN/STOP` ends a run cleanly (final save, plot); the same command resumes it.
+
 Training episodes draw their seeds from [TRAIN_SEED_MIN, 2**31), so their rooms never coincide
 with evaluation seeds (EVAL_SEED_START.., and the < 1e6 seeds of bench and compare).
 """
@@ -274,7 +276,17 @@ def _callbacks() -> Any:
                 )
             return row
 
-    return EscapeStats, PeriodicEval
+    class StopFile(BaseCallback):
+        """Ends training cleanly (final save, plots) when `run_dir/STOP` appears."""
+
+        def __init__(self, path: Path) -> None:
+            super().__init__()
+            self.path = path
+
+        def _on_step(self) -> bool:
+            return self.n_calls % 256 != 0 or not self.path.exists()
+
+    return EscapeStats, PeriodicEval, StopFile
 
 
 # --- behaviour cloning ---------------------------------------------------------------------
@@ -431,7 +443,8 @@ def train(
                 with torch.no_grad():
                     model.policy.log_std.fill_(float(config.pico["bc_log_std"]))
     model.set_logger(configure(str(run_dir / "tb"), ["csv", "tensorboard"]))
-    EscapeStats, PeriodicEval = _callbacks()
+    EscapeStats, PeriodicEval, StopFile = _callbacks()
+    (run_dir / "STOP").unlink(missing_ok=True)
     n_envs = int(zoo["n_envs"])
     callbacks = [
         EscapeStats(),
@@ -442,6 +455,7 @@ def train(
             save_vecnormalize=norm is not None,
         ),
         PeriodicEval(config, run_dir, int(config.pico["eval_freq"]), int(config.pico["eval_episodes"])),
+        StopFile(run_dir / "STOP"),
     ]
     remaining = total - model.num_timesteps
     if remaining > 0:

@@ -11,6 +11,7 @@ a short check (`check`: the first seeds' results) that tests/test_ppo_model.py r
 from __future__ import annotations
 
 import argparse
+import csv
 import json
 import shutil
 import sys
@@ -47,6 +48,12 @@ def ship(source: Path, episodes: int, seed: int, realism: bool = True) -> Path:
     config = yaml.safe_load((run_dir / "config.yaml").read_text())
     done = json.loads((run_dir / "done.json").read_text()) if (run_dir / "done.json").exists() else {}
     meta = json.loads(policy_metadata_path(source).read_text())
+    # Wall-clock to this policy: behaviour cloning (if any) + training up to its evaluation.
+    bc = run_dir / "behaviour_cloning.json"
+    bc_seconds = json.loads(bc.read_text())["seconds"] if bc.exists() else 0.0
+    rows = list(csv.DictReader((run_dir / "eval.csv").open())) if (run_dir / "eval.csv").exists() else []
+    at = [float(r["wall_clock_s"]) for r in rows if int(r["timesteps"]) == int(meta.get("timesteps", -1))]
+    meta["wall_clock_s"] = round(bc_seconds + at[0], 1) if at else done.get("wall_clock_s")
     SHIPPED_MODEL.parent.mkdir(parents=True, exist_ok=True)
     shutil.copyfile(source, SHIPPED_MODEL)
 
@@ -63,8 +70,7 @@ def ship(source: Path, episodes: int, seed: int, realism: bool = True) -> Path:
         source=str(source),
         command=config.get("run", {}).get("command", ""),
         train_seed=config.get("run", {}).get("seed"),
-        run_timesteps=done.get("timesteps"),
-        wall_clock_s=done.get("wall_clock_s"),
+        run_timesteps=done.get("timesteps") or max((int(r["timesteps"]) for r in rows), default=None),
         evaluation=evaluation,
         check={
             "seeds": [r.seed for r in check],
