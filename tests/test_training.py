@@ -159,3 +159,11 @@ def test_a_stop_file_ends_a_run_cleanly(tiny_config, tmp_path):
     train(tiny_config, run, timesteps=100_000, progress_bar=False)
     steps = json.loads((run / "done.json").read_text())["timesteps"]
     assert 1024 <= steps < 100_000 and (run / "model.zip").is_file()
+
+
+def test_init_from_another_runs_checkpoint(tiny_config, tmp_path):
+    train(tiny_config, tmp_path / "a", timesteps=1024, progress_bar=False)
+    checkpoint = tmp_path / "a" / "checkpoints" / "ppo_1024_steps.zip"
+    train(tiny_config, tmp_path / "b", timesteps=2048, progress_bar=False, init_from=checkpoint)
+    assert json.loads((tmp_path / "b" / "init_from.json").read_text())["timesteps"] == 1024
+    assert json.loads((tmp_path / "b" / "done.json").read_text())["timesteps"] == 2048

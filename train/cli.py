@@ -29,7 +29,15 @@ def cmd_train(args: argparse.Namespace) -> int:
     out = Path(args.out or f"runs/{Path(args.config).stem}_seed{args.seed}")
     start = time.perf_counter()
     command = shlex.join(["pico-gym", *sys.argv[1:]])
-    path = train(config, out, args.timesteps, args.seed, progress_bar=not args.no_progress, command=command)
+    path = train(
+        config,
+        out,
+        args.timesteps,
+        args.seed,
+        progress_bar=not args.no_progress,
+        command=command,
+        init_from=args.init_from,
+    )
     print(f"wrote {path} ({(time.perf_counter() - start) / 60:.1f} min); run directory {out}")
     return 0
 
@@ -40,5 +48,6 @@ def add_train(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--timesteps", type=int, help="total env steps (default: the config's n_timesteps)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--out", help="run directory (default: runs/<config>_seed<S>)")
+    p.add_argument("--init-from", help="start from this checkpoint of another run (e.g. to fine-tune)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_train)

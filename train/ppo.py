@@ -21,7 +21,6 @@ with evaluation seeds (EVAL_SEED_START.., and the < 1e6 seeds of bench and compa
 
 from __future__ import annotations
 
-import copy
 import csv
 import importlib
 import json
@@ -390,8 +389,13 @@ def train(
     progress_bar: bool = True,
     verbose: int = 0,
     command: str = "",
+    init_from: str | Path | None = None,
 ) -> Path:
-    """Train (or resume, if `run_dir` has checkpoints) and return the final policy's path."""
+    """Train (or resume, if `run_dir` has checkpoints) and return the final policy's path.
+
+    `init_from`: a checkpoint (of another run) to start from instead of a new policy, e.g. to
+    fine-tune with other rewards; its step count carries on. Ignored when resuming.
+    """
     import torch
     from stable_baselines3 import PPO
     from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback
@@ -403,6 +407,20 @@ def train(
     torch.set_num_threads(int(config.pico["torch_threads"]))
     total = int(timesteps if timesteps is not None else float(config.zoo["n_timesteps"]))
     resumed = latest_checkpoint(run_dir)
+    if resumed is None and init_from is not None:
+        init_from = Path(init_from)
+        if not init_from.is_file():
+            raise FileNotFoundError(f"--init-from: no checkpoint at {init_from}")
+        m = re.fullmatch(r"ppo_(\d+)_steps\.zip", init_from.name)
+        start = int(m.group(1)) if m else 0
+        (run_dir / "checkpoints").mkdir(parents=True, exist_ok=True)
+        first = run_dir / "checkpoints" / f"ppo_{start}_steps.zip"
+        first.write_bytes(init_from.read_bytes())
+        stats = init_from.with_name(f"ppo_vecnormalize_{start}_steps.pkl")
+        if stats.exists():
+            (run_dir / "checkpoints" / stats.name).write_bytes(stats.read_bytes())
+        (run_dir / "init_from.json").write_text(json.dumps({"checkpoint": str(init_from), "timesteps": start}) + "\n")
+        resumed = (first, start)
     zoo = copy.deepcopy(config.zoo)
     zoo["n_timesteps"] = total
     resolved = TrainConfig(config.env_id, zoo, config.pico, config.source)
