@@ -21,6 +21,7 @@ with evaluation seeds (EVAL_SEED_START.., and the < 1e6 seeds of bench and compa
 
 from __future__ import annotations
 
+import copy
 import csv
 import importlib
 import json
