@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import json
 from pathlib import Path
 
 
@@ -10,8 +11,21 @@ def _read(path: Path) -> list[dict[str, str]]:
     return list(csv.DictReader(path.open())) if path.exists() else []
 
 
+def _lineage(run_dir: Path, name: str, key: str) -> list[dict[str, str]]:
+    """A run's rows of `name`, preceded by those of the run it started from (--init-from)."""
+    rows = _read(run_dir / name)
+    init = run_dir / "init_from.json"
+    if init.exists():
+        parent = json.loads(init.read_text())
+        parent_dir = Path(parent["checkpoint"]).parent.parent  # RUN/checkpoints/ppo_N_steps.zip
+        earlier = [r for r in _lineage(parent_dir, name, key) if int(r[key]) <= int(parent["timesteps"])]
+        rows = earlier + rows
+    return rows
+
+
 def plot_learning_curve(run_dir: str | Path, out: str | Path) -> Path:
-    """Success rate vs env steps: training episodes (last 100) and periodic evaluations."""
+    """Success rate vs env steps: training episodes (last 100) and periodic evaluations (including
+    those of the run this one started from, if it was started with --init-from)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -19,7 +33,7 @@ def plot_learning_curve(run_dir: str | Path, out: str | Path) -> Path:
 
     run_dir = Path(run_dir)
     fig, ax = plt.subplots(figsize=(7, 4), dpi=110)
-    progress = [r for r in _read(run_dir / "progress.csv") if r.get("escape/success_rate")]
+    progress = [r for r in _lineage(run_dir, "progress.csv", "time/total_timesteps") if r.get("escape/success_rate")]
     if progress:
         ax.plot(
             [int(r["time/total_timesteps"]) for r in progress],
@@ -28,7 +42,12 @@ def plot_learning_curve(run_dir: str | Path, out: str | Path) -> Path:
             lw=1,
             label="training episodes (last 100)",
         )
-    evals = _read(run_dir / "eval.csv")
+    evals = _lineage(run_dir, "eval.csv", "timesteps")
+    init = run_dir / "init_from.json"
+    if init.exists():
+        start = json.loads(init.read_text())["timesteps"]
+        ax.axvline(start, color="0.3", ls=":", lw=1)
+        ax.text(start, 2, " fine-tuning starts", fontsize=8, color="0.3")
     if evals:
         steps = [int(r["timesteps"]) for r in evals]
         ax.plot(steps, [100 * float(r["success_rate"]) for r in evals], "o-", color="C0", label="evaluation: success")

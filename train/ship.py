@@ -43,17 +43,53 @@ def _row(name: str, s: Summary) -> str:
     )
 
 
-def ship(source: Path, episodes: int, seed: int, realism: bool = True) -> Path:
+def wall_clock(run_dir: Path, timesteps: int) -> float | None:
+    """Seconds of training to reach `timesteps` (an evaluation point): behaviour cloning, the
+    run's own learning time, and that of the run it started from (--init-from), if any."""
+    bc = run_dir / "behaviour_cloning.json"
+    seconds = json.loads(bc.read_text())["seconds"] if bc.exists() else 0.0
+    rows = list(csv.DictReader((run_dir / "eval.csv").open())) if (run_dir / "eval.csv").exists() else []
+    at = [float(r["wall_clock_s"]) for r in rows if int(r["timesteps"]) == timesteps]
+    if not at:
+        return None
+    init = run_dir / "init_from.json"
+    if init.exists():
+        parent = json.loads(init.read_text())
+        before = wall_clock(Path(parent["checkpoint"]).parent.parent, int(parent["timesteps"]))
+        if before is None:
+            return None
+        seconds += before
+    return round(seconds + at[0], 1)
+
+
+def history(run_dir: Path) -> list[str]:
+    """What was run, oldest first: the commands of this run and of the runs it started from."""
+    config = yaml.safe_load((run_dir / "config.yaml").read_text())
+    lines = []
+    init = run_dir / "init_from.json"
+    if init.exists():
+        parent = json.loads(init.read_text())
+        lines += history(Path(parent["checkpoint"]).parent.parent)
+        lines.append(f"then from its checkpoint at {parent['timesteps']:,} steps:")
+    bc = run_dir / "behaviour_cloning.json"
+    if bc.exists():
+        report = json.loads(bc.read_text())
+        lines.append(
+            f"behaviour cloning of the classic agent: {report['episodes']} rooms, {report['samples']:,} samples, "
+            f"{report['epochs']} epochs, MSE {report['mse_per_epoch'][0]:.4f} -> {report['mse_per_epoch'][-1]:.4f}, "
+            f"{report['seconds']:.0f} s"
+        )
+    lines.append(f"`{config.get('run', {}).get('command', '?')}`")
+    return lines
+
+
+def ship(source: Path, episodes: int, seed: int, realism: bool = True, reproduce: list[str] | None = None) -> Path:
     run_dir = source.parent
     config = yaml.safe_load((run_dir / "config.yaml").read_text())
     done = json.loads((run_dir / "done.json").read_text()) if (run_dir / "done.json").exists() else {}
     meta = json.loads(policy_metadata_path(source).read_text())
-    # Wall-clock to this policy: behaviour cloning (if any) + training up to its evaluation.
-    bc = run_dir / "behaviour_cloning.json"
-    bc_seconds = json.loads(bc.read_text())["seconds"] if bc.exists() else 0.0
     rows = list(csv.DictReader((run_dir / "eval.csv").open())) if (run_dir / "eval.csv").exists() else []
-    at = [float(r["wall_clock_s"]) for r in rows if int(r["timesteps"]) == int(meta.get("timesteps", -1))]
-    meta["wall_clock_s"] = round(bc_seconds + at[0], 1) if at else done.get("wall_clock_s")
+    meta["wall_clock_s"] = wall_clock(run_dir, int(meta.get("timesteps", -1))) or done.get("wall_clock_s")
     SHIPPED_MODEL.parent.mkdir(parents=True, exist_ok=True)
     shutil.copyfile(source, SHIPPED_MODEL)
 
@@ -72,6 +108,8 @@ def ship(source: Path, episodes: int, seed: int, realism: bool = True) -> Path:
         train_seed=config.get("run", {}).get("seed"),
         run_timesteps=done.get("timesteps") or max((int(r["timesteps"]) for r in rows), default=None),
         evaluation=evaluation,
+        history=history(run_dir),
+        reproduce=reproduce or [],
         check={
             "seeds": [r.seed for r in check],
             "success": [r.success for r in check],
@@ -99,11 +137,17 @@ def _write_card(meta: dict[str, Any], config: dict[str, Any], rows: list[str], o
         '- Loads with `make_agent("ppo", env)`; needs stable-baselines3 and torch (the `train` extra).',
         "",
         "## How it was trained",
-        f"- Command: `{run.get('command') or 'pico-gym train --config train/configs/ppo_escape.yaml'}`",
+        *[f"- {line}" for line in meta.get("history", [])],
         f"- Seed: {run.get('seed')}; env steps: {meta.get('timesteps'):,} (this checkpoint; the run went to "
         f"{meta.get('run_timesteps') or 0:,})",
         f"- Wall-clock: {minutes:.0f} min on {run.get('versions', {}).get('machine', '?')}",
         f"- Picked: `{Path(meta['source']).name}` of the run (best periodic evaluation on seeds 900000-900099).",
+        "",
+        "To reproduce (same configs, in this repository):",
+        "",
+        "```bash",
+        *meta.get("reproduce", []),
+        "```",
         "",
         "## Evaluation (rooms it never trained on; deterministic policy)",
         "",
@@ -130,8 +174,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--episodes", type=int, default=500)
     p.add_argument("--seed", type=int, default=1000)
     p.add_argument("--no-realism", action="store_true", help="skip the noise x2 + slip evaluation")
+    p.add_argument("--reproduce", action="append", help="a command reproducing the run (repeatable)")
     args = p.parse_args(argv)
-    path = ship(args.policy, args.episodes, args.seed, realism=not args.no_realism)
+    path = ship(args.policy, args.episodes, args.seed, realism=not args.no_realism, reproduce=args.reproduce)
     print(f"shipped {path} ({path.stat().st_size / 1e6:.1f} MB); card: {path.parent / 'MODEL_CARD.md'}")
     return 0
 
