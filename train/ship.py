@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 import csv
 import json
+import re
 import shutil
 import sys
 from pathlib import Path
@@ -84,10 +85,29 @@ def history(run_dir: Path) -> list[str]:
 
 
 def ship(source: Path, episodes: int, seed: int, realism: bool = True, reproduce: list[str] | None = None) -> Path:
-    run_dir = source.parent
+    run_dir = source.parent.parent if source.parent.name == "checkpoints" else source.parent
     config = yaml.safe_load((run_dir / "config.yaml").read_text())
     done = json.loads((run_dir / "done.json").read_text()) if (run_dir / "done.json").exists() else {}
-    meta = json.loads(policy_metadata_path(source).read_text())
+    meta_path = policy_metadata_path(source)
+    if meta_path.exists():
+        meta = json.loads(meta_path.read_text())
+    else:  # a checkpoint: its metadata comes from the run's resolved config
+        from train.ppo import TrainConfig
+
+        m = re.fullmatch(r"ppo_(\d+)_steps\.zip", source.name)
+        if m is None:
+            raise SystemExit(f"{source}: neither a saved policy (no {meta_path.name}) nor a checkpoint")
+        env_id = next(k for k in config if k not in ("pico-gym", "run"))
+        if config[env_id].get("normalize"):
+            raise SystemExit(f"{source}: ship best.zip or model.zip, which carry the VecNormalize statistics")
+        learning = TrainConfig(env_id, config[env_id], config["pico-gym"], str(run_dir)).learning
+        meta = {
+            "algo": "ppo",
+            "learning": learning.to_dict(),
+            "env_id": env_id,
+            "env_kwargs": config["pico-gym"].get("env_kwargs") or {},
+            "timesteps": int(m.group(1)),
+        }
     rows = list(csv.DictReader((run_dir / "eval.csv").open())) if (run_dir / "eval.csv").exists() else []
     meta["wall_clock_s"] = wall_clock(run_dir, int(meta.get("timesteps", -1))) or done.get("wall_clock_s")
     SHIPPED_MODEL.parent.mkdir(parents=True, exist_ok=True)
