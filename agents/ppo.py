@@ -148,4 +148,4 @@ class PpoAgent(Agent):
                 dist = self.model.policy.get_distribution(obs_tensor).distribution
                 mean, std = dist.mean.numpy()[0], dist.stddev.numpy()[0]
             unit = mean + std * self.rng.standard_normal(mean.shape)
-        return rescale_action(unit, self._low, self._high)
+        return rescale_action(unit, self._low, self._high).astype(np.float32)

@@ -23,7 +23,9 @@ def _lineage(run_dir: Path, name: str, key: str) -> list[dict[str, str]]:
     return rows
 
 
-def plot_learning_curve(run_dir: str | Path, out: str | Path) -> Path:
+def plot_learning_curve(
+    run_dir: str | Path, out: str | Path, mark: int | None = None, title: str | None = None
+) -> Path:
     """Success rate vs env steps: training episodes (last 100) and periodic evaluations (including
     those of the run this one started from, if it was started with --init-from)."""
     import matplotlib
@@ -52,12 +54,15 @@ def plot_learning_curve(run_dir: str | Path, out: str | Path) -> Path:
         steps = [int(r["timesteps"]) for r in evals]
         ax.plot(steps, [100 * float(r["success_rate"]) for r in evals], "o-", color="C0", label="evaluation: success")
         ax.plot(steps, [100 * float(r["bump_rate"]) for r in evals], "s--", color="C3", label="evaluation: bumps")
+    if mark is not None:
+        ax.axvline(mark, color="C1", ls="--", lw=1)
+        ax.text(mark, 30, " shipped", fontsize=8, color="C1", va="top")
     ax.set_xlabel("env steps")
     ax.set_ylabel("% of episodes")
     ax.set_ylim(0, 100)
     ax.grid(alpha=0.3)
     ax.legend(loc="center right")
-    ax.set_title(f"PPO on PicoEscape-v0: {run_dir.name}")
+    ax.set_title(title or f"PPO on PicoEscape-v0: {run_dir.name}")
     fig.tight_layout()
     fig.savefig(out)
     plt.close(fig)
@@ -71,4 +76,6 @@ if __name__ == "__main__":
     tb = run / "tb" / "progress.csv"
     if tb.exists():  # a run still going (or stopped) has its progress only in tb/
         (run / "progress.csv").write_bytes(tb.read_bytes())
-    print(plot_learning_curve(run, sys.argv[2] if len(sys.argv) > 2 else run / "learning_curve.png"))
+    out = sys.argv[2] if len(sys.argv) > 2 else run / "learning_curve.png"
+    mark = int(sys.argv[3]) if len(sys.argv) > 3 else None
+    print(plot_learning_curve(run, out, mark, "PPO on PicoEscape-v0 (train/configs/ppo_escape.yaml, seed 0)"))

@@ -84,7 +84,15 @@ def history(run_dir: Path) -> list[str]:
     return lines
 
 
-def ship(source: Path, episodes: int, seed: int, realism: bool = True, reproduce: list[str] | None = None) -> Path:
+def ship(
+    source: Path,
+    episodes: int,
+    seed: int,
+    realism: bool = True,
+    reproduce: list[str] | None = None,
+    picked: str = "",
+    note: str = "",
+) -> Path:
     run_dir = source.parent.parent if source.parent.name == "checkpoints" else source.parent
     config = yaml.safe_load((run_dir / "config.yaml").read_text())
     done = json.loads((run_dir / "done.json").read_text()) if (run_dir / "done.json").exists() else {}
@@ -112,6 +120,7 @@ def ship(source: Path, episodes: int, seed: int, realism: bool = True, reproduce
     meta["wall_clock_s"] = wall_clock(run_dir, int(meta.get("timesteps", -1))) or done.get("wall_clock_s")
     SHIPPED_MODEL.parent.mkdir(parents=True, exist_ok=True)
     shutil.copyfile(source, SHIPPED_MODEL)
+    policy_metadata_path(SHIPPED_MODEL).write_text(json.dumps(meta, indent=1, default=str) + "\n")
 
     seeds = range(seed, seed + episodes)
     summary, records = _evaluate(SHIPPED_MODEL.with_suffix(".zip"), seeds, meta.get("env_kwargs") or {})
@@ -130,6 +139,8 @@ def ship(source: Path, episodes: int, seed: int, realism: bool = True, reproduce
         evaluation=evaluation,
         history=history(run_dir),
         reproduce=reproduce or [],
+        picked=picked,
+        wall_clock_note=note,
         check={
             "seeds": [r.seed for r in check],
             "success": [r.success for r in check],
@@ -152,16 +163,21 @@ def _write_card(meta: dict[str, Any], config: dict[str, Any], rows: list[str], o
         "## What it is",
         f"- PPO (stable-baselines3 {run.get('versions', {}).get('stable-baselines3', '?')}), MLP policy, "
         f"trained on PicoEscape-v0's generated rooms (seeds >= 1,000,000).",
-        f"- Observation: `PicoLearningWrapper` with {meta['learning']} (min-pooled LRF sectors, "
-        "odometry velocity, frame stack); actions in [-1, 1] rescaled to the robot's limits.",
+        "- Observation: `PicoLearningWrapper("
+        + ", ".join(f"{k}={v!r}" for k, v in meta["learning"].items())
+        + ")` (min-pooled LRF sectors, 360-degree range memory, odometry velocity, frame stack); "
+        "actions in [-1, 1] rescaled to the robot's limits.",
         '- Loads with `make_agent("ppo", env)`; needs stable-baselines3 and torch (the `train` extra).',
         "",
         "## How it was trained",
         *[f"- {line}" for line in meta.get("history", [])],
         f"- Seed: {run.get('seed')}; env steps: {meta.get('timesteps'):,} (this checkpoint; the run went to "
         f"{meta.get('run_timesteps') or 0:,})",
-        f"- Wall-clock: {minutes:.0f} min on {run.get('versions', {}).get('machine', '?')}",
-        f"- Picked: `{Path(meta['source']).name}` of the run (best periodic evaluation on seeds 900000-900099).",
+        f"- Wall-clock to this checkpoint: {minutes:.0f} min (behaviour cloning + training + periodic "
+        f"evaluations) on {run.get('versions', {}).get('machine', '?')}"
+        + (f"; {meta['wall_clock_note']}" if meta.get("wall_clock_note") else ""),
+        f"- Picked: `{Path(meta['source']).name}` of the run: {meta.get('picked') or 'by hand'}.",
+        "- Learning curve: [docs/ppo_learning_curve.png](../../docs/ppo_learning_curve.png)",
         "",
         "To reproduce (same configs, in this repository):",
         "",
@@ -177,7 +193,11 @@ def _write_card(meta: dict[str, Any], config: dict[str, Any], rows: list[str], o
         *rows,
         "",
         f"Seeds {meta['evaluation']['generated']['seeds'][0]}-{meta['evaluation']['generated']['seeds'][1]}; "
-        "targets: success >= 95 %, bump rate <= 2 %.",
+        "targets: success >= 95 % ("
+        + ("met" if meta["evaluation"]["generated"]["success_rate"] >= 0.95 else "NOT met")
+        + "), bump rate <= 2 % ("
+        + ("met" if meta["evaluation"]["generated"]["bump_rate"] <= 0.02 else "NOT met")
+        + ").",
         "",
         "## Config",
         "```yaml",
@@ -195,8 +215,18 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--seed", type=int, default=1000)
     p.add_argument("--no-realism", action="store_true", help="skip the noise x2 + slip evaluation")
     p.add_argument("--reproduce", action="append", help="a command reproducing the run (repeatable)")
+    p.add_argument("--picked", default="", help="how this policy was chosen among the run's")
+    p.add_argument("--wall-clock-note", default="", help="context for the wall-clock figure")
     args = p.parse_args(argv)
-    path = ship(args.policy, args.episodes, args.seed, realism=not args.no_realism, reproduce=args.reproduce)
+    path = ship(
+        args.policy,
+        args.episodes,
+        args.seed,
+        realism=not args.no_realism,
+        reproduce=args.reproduce,
+        picked=args.picked,
+        note=args.wall_clock_note,
+    )
     print(f"shipped {path} ({path.stat().st_size / 1e6:.1f} MB); card: {path.parent / 'MODEL_CARD.md'}")
     return 0
 
