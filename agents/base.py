@@ -6,6 +6,7 @@ sensor and body configuration, the control period); never the true pose or an es
 
 from __future__ import annotations
 
+import zlib
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from typing import Any
@@ -35,6 +36,12 @@ class RobotSpec:
         """The spec of an env's robot (its public configuration, no world state)."""
         config = env.unwrapped.config
         return RobotSpec(config.lrf, config.robot, config.dt_s)
+
+
+def episode_rng(seed: int, obs: dict[str, np.ndarray]) -> np.random.Generator:
+    """A generator for one episode, from an agent's seed and the episode's first scan: the episode
+    then plays the same whatever ran before it (in which worker, in which order)."""
+    return np.random.default_rng([seed, zlib.crc32(np.ascontiguousarray(obs["lrf"]).tobytes())])
 
 
 class Agent(ABC):

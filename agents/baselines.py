@@ -3,12 +3,11 @@
 from __future__ import annotations
 
 import math
-import zlib
 from typing import Any
 
 import numpy as np
 
-from agents.base import Agent, RobotSpec
+from agents.base import Agent, RobotSpec, episode_rng
 from agents.classic.potential_field import MotionConfig, keep_in_view, safety_filter
 from pico_gym.overlay import Overlay
 
@@ -29,7 +28,7 @@ class RandomAgent(Agent):
         self.high = spec.robot.action_high
 
     def reset(self, obs: dict[str, np.ndarray], info: dict[str, Any] | None = None) -> None:
-        self.rng = np.random.default_rng([self.seed, zlib.crc32(np.ascontiguousarray(obs["lrf"]).tobytes())])
+        self.rng = episode_rng(self.seed, obs)
 
     def act(self, obs: dict[str, np.ndarray]) -> np.ndarray:
         return (self.rng.uniform(-1.0, 1.0, 3) * self.high).astype(np.float32)

@@ -10,13 +10,12 @@ limits. Needs the `train` extra (stable-baselines3, torch).
 from __future__ import annotations
 
 import json
-import zlib
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from agents.base import Agent, RobotSpec
+from agents.base import Agent, RobotSpec, episode_rng
 from pico_gym.wrappers import LearningConfig, LearningEncoder, rescale_action
 
 # The shipped policy (see agents/models/MODEL_CARD.md).
@@ -128,7 +127,7 @@ class PpoAgent(Agent):
 
     def reset(self, obs: dict[str, np.ndarray], info: dict[str, Any] | None = None) -> None:
         self._first = self.encoder.reset(obs)
-        self.rng = np.random.default_rng([self.seed, zlib.crc32(np.ascontiguousarray(obs["lrf"]).tobytes())])
+        self.rng = episode_rng(self.seed, obs)
 
     def act(self, obs: dict[str, np.ndarray]) -> np.ndarray:
         if self._first is not None:  # the observation reset() already encoded

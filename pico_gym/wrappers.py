@@ -81,6 +81,11 @@ def rescale_action(unit: np.ndarray, low: np.ndarray, high: np.ndarray) -> np.nd
     return low + (unit + 1.0) * 0.5 * (high - low)
 
 
+def unit_action(action: np.ndarray, low: np.ndarray, high: np.ndarray) -> np.ndarray:
+    """The inverse of `rescale_action`: an action in [low, high] mapped to [-1, 1]."""
+    return np.clip(2.0 * (np.asarray(action, np.float64) - low) / (high - low) - 1.0, -1.0, 1.0)
+
+
 # --- single-purpose wrappers ----------------------------------------------------------------
 def _env_config(env: gym.Env) -> Any:
     config = getattr(env.unwrapped, "config", None)

@@ -17,6 +17,7 @@ from pico_gym.wrappers import (
     min_pool,
     rescale_action,
     sector_starts,
+    unit_action,
 )
 
 
@@ -55,6 +56,7 @@ def test_action_rescaling_round_trip():
         twist = rescale_action(np.array(unit, float), low, high)
         assert np.all(twist >= low) and np.all(twist <= high)
         np.testing.assert_allclose((twist - low) / (high - low) * 2 - 1, unit, atol=1e-12)
+        np.testing.assert_allclose(unit_action(twist, low, high), unit, atol=1e-12)
     np.testing.assert_allclose(rescale_action(np.array([5.0, -5, 0]), low, high), [0.5, -0.5, 0.0])
     # And through the wrapper: unit action 1 on vx drives at 0.5 m/s.
     env = PicoLearningWrapper(gym.make("PicoEscape-v0", map="escape_2019"), n_sectors=16)

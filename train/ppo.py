@@ -293,7 +293,7 @@ def _callbacks() -> Any:
 def collect_demonstrations(config: TrainConfig, episodes: int, teacher: str = "classic") -> tuple[Any, Any, dict]:
     """(policy inputs, unit actions) of `teacher` on `episodes` training-seed rooms."""
     from agents import make_agent
-    from pico_gym.wrappers import LearningEncoder
+    from pico_gym.wrappers import LearningEncoder, unit_action
 
     env = gym.make(config.env_id, **{**config.pico["env_kwargs"], **config.pico["train_env_kwargs"]})
     spec = RobotSpec.of(env)
@@ -309,7 +309,7 @@ def collect_demonstrations(config: TrainConfig, episodes: int, teacher: str = "c
         while True:
             action = np.asarray(agent.act(obs), np.float64)
             xs.append(x)
-            ys.append(np.clip(2.0 * (action - low) / (high - low) - 1.0, -1.0, 1.0))
+            ys.append(unit_action(action, low, high))
             obs, _, terminated, truncated, info = env.step(action)
             if terminated or truncated:
                 successes += bool(info["is_success"])
