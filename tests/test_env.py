@@ -185,6 +185,30 @@ def test_bump_terminates_by_default_and_continue_keeps_going() -> None:
     assert info["bumps"] == 1 and info["min_clearance"] >= 0.0
 
 
+def test_proximity_term_grows_towards_a_wall_and_is_off_by_default() -> None:
+    def drive(**options):
+        env = gym.make("PicoEscape-v0", map="escape_2018", wheel_noise=0.0, **options)
+        env.reset(seed=0, options={"start_pose": (1.0, 1.0, np.pi)})
+        terms = []
+        for _ in range(40):
+            _, _, terminated, _, info = env.step(np.array([0.5, 0.0, 0.0]))
+            terms.append((info["clearance"], info["reward_terms"]["proximity"]))
+            if terminated:
+                return terms, info
+        raise AssertionError("never bumped")
+
+    terms, _ = drive()
+    assert all(p == 0.0 for _, p in terms)
+    terms, info = drive(rewards={"proximity": 5.0, "proximity_m": 0.2})
+    assert info["termination_reason"] == "bump"
+    for clearance, p in terms:
+        assert p == pytest.approx(-5.0 * 0.1 * max(0.0, 1.0 - clearance / 0.2))
+    near = [p for c, p in terms if c < 0.2]
+    assert len(near) >= 2 and near == sorted(near, reverse=True)  # more negative as the wall nears
+    with pytest.raises(ValueError, match="proximity_m"):
+        gym.make("PicoEscape-v0", rewards={"proximity_m": 0.0})
+
+
 def test_idle_ends_after_30_seconds() -> None:
     env = gym.make("PicoEscape-v0")
     env.reset(seed=0)

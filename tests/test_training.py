@@ -164,6 +164,18 @@ def test_a_stop_file_ends_a_run_cleanly(tiny_config, tmp_path):
 def test_init_from_another_runs_checkpoint(tiny_config, tmp_path):
     train(tiny_config, tmp_path / "a", timesteps=1024, progress_bar=False)
     checkpoint = tmp_path / "a" / "checkpoints" / "ppo_1024_steps.zip"
-    train(tiny_config, tmp_path / "b", timesteps=2048, progress_bar=False, init_from=checkpoint)
+    # A fine-tune: a lower learning rate and a proximity penalty, which the new run must use.
+    fine = tmp_path / "fine.yaml"
+    fine.write_text(
+        TINY.replace("  n_epochs: 2\n", "  n_epochs: 2\n  learning_rate: !!float 3e-5\n").replace(
+            "time_limit_s: 15}", "time_limit_s: 15, rewards: {proximity: 1.0}}"
+        )
+    )
+    train(load_config(fine), tmp_path / "b", timesteps=2048, progress_bar=False, init_from=checkpoint)
     assert json.loads((tmp_path / "b" / "init_from.json").read_text())["timesteps"] == 1024
     assert json.loads((tmp_path / "b" / "done.json").read_text())["timesteps"] == 2048
+    from stable_baselines3 import PPO
+
+    tuned = PPO.load(tmp_path / "b" / "checkpoints" / "ppo_2048_steps.zip", device="cpu")
+    assert tuned.learning_rate == pytest.approx(3e-5)
+    assert "proximity: 1.0" in (tmp_path / "b" / "config.yaml").read_text()

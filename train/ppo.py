@@ -441,11 +441,13 @@ def train(
             vec_env = VecNormalize.load(str(stats), vec_env)
         else:
             vec_env = VecNormalize(vec_env, gamma=float(zoo.get("gamma", 0.99)), **norm)
+    hyper = {k: float(v) if isinstance(v, str) and _is_number(v) else v for k, v in zoo.items() if k not in ZOO_KEYS}
     if resumed:
-        model = PPO.load(resumed[0], env=vec_env, device="cpu")
+        # The config's hyper-parameters win over the checkpoint's (a fine-tune may lower the
+        # learning rate); the network comes from the checkpoint.
+        model = PPO.load(resumed[0], env=vec_env, device="cpu", **hyper)
         print(f"resuming {run_dir} from {resumed[0].name} ({resumed[1]:,} of {total:,} steps)")
     else:
-        hyper = {k: v for k, v in zoo.items() if k not in ZOO_KEYS}
         model = PPO(
             zoo["policy"],
             vec_env,
@@ -453,7 +455,7 @@ def train(
             seed=seed,
             device="cpu",
             verbose=verbose,
-            **{k: float(v) if isinstance(v, str) and _is_number(v) else v for k, v in hyper.items()},
+            **hyper,
         )
         if int(config.pico["bc_episodes"]) > 0:
             report = behaviour_clone(model, config, int(config.pico["bc_episodes"]), int(config.pico["bc_epochs"]))

@@ -182,7 +182,7 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
             self.bump_points.append(pose)
         self.trajectory.append(pose)
 
-        outcome = self.task.evaluate(pose, progress, new_bumps, self.physics.bumps, self._idle_s, dt)
+        outcome = self.task.evaluate(pose, progress, new_bumps, self.physics.bumps, self._idle_s, dt, self._clearance)
         reason = outcome.termination_reason
         terminated = reason is not None
         truncated = not terminated and self.sim_time_s >= task_cfg.time_limit_s - 1e-9

@@ -37,12 +37,22 @@ class RewardWeights:
         success: once, on escaping.
         bump: per bump (the term is minus the number of new bumps).
         time: per second of simulated time (the term is minus the step's duration).
+        proximity: per second spent closer to a wall than `proximity_m`, scaled by how much closer
+            (the term is minus the step's duration times max(0, 1 - clearance / proximity_m)): a
+            dense warning before a bump. Off by default.
+        proximity_m: the footprint clearance under which the proximity term starts [m].
     """
 
     progress: float = 1.0
     success: float = 10.0
     bump: float = 10.0
     time: float = 0.1
+    proximity: float = 0.0
+    proximity_m: float = 0.1
+
+    def __post_init__(self) -> None:
+        if self.proximity_m <= 0:
+            raise ValueError(f"RewardWeights.proximity_m must be positive, got {self.proximity_m}")
 
 
 @dataclass(frozen=True)
@@ -235,22 +245,34 @@ class EscapeTask:
         return _min_signed_distance(pose.x, pose.y, pose.theta, self.robot.outline, p[0], p[1], n[0], n[1])
 
     def evaluate(
-        self, pose: Pose, progress_m: float, new_bumps: int, bumps: int, idle_s: float, dt_s: float
+        self,
+        pose: Pose,
+        progress_m: float,
+        new_bumps: int,
+        bumps: int,
+        idle_s: float,
+        dt_s: float,
+        clearance_m: float = math.inf,
     ) -> StepOutcome:
         """Judge one step: its reward terms, and why the episode ends now (or None)."""
         escaped = self.past_finish(pose) > 0.0
         return StepOutcome(
-            self.reward_terms(progress_m, escaped, new_bumps, dt_s), self.termination(escaped, bumps, idle_s), escaped
+            self.reward_terms(progress_m, escaped, new_bumps, dt_s, clearance_m),
+            self.termination(escaped, bumps, idle_s),
+            escaped,
         )
 
-    def reward_terms(self, progress_m: float, escaped: bool, new_bumps: int, dt_s: float) -> dict[str, float]:
-        """The weighted reward terms of one step."""
+    def reward_terms(
+        self, progress_m: float, escaped: bool, new_bumps: int, dt_s: float, clearance_m: float = math.inf
+    ) -> dict[str, float]:
+        """The weighted reward terms of one step (clearance_m: the footprint's, after the step)."""
         w = self.config.rewards
         return {
             "progress": w.progress * progress_m,
             "success": w.success * float(escaped),
             "bump": -w.bump * new_bumps,
             "time": -w.time * dt_s,
+            "proximity": -w.proximity * dt_s * max(0.0, 1.0 - clearance_m / w.proximity_m),
         }
 
     def termination(self, escaped: bool, bumps: int, idle_s: float) -> str | None:
