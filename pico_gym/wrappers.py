@@ -47,11 +47,40 @@ def sector_starts(n_beams: int, n_sectors: int) -> np.ndarray:
     return (np.arange(n_sectors) * n_beams) // n_sectors
 
 
+# The log range scale maps this range (and anything nearer) to 0 [m].
+LOG_RANGE_MIN_M = 0.1
+RANGE_SCALES = ("linear", "log")
+
+
+def scale_ranges(ranges: np.ndarray, range_max: float, scale: str = "linear") -> np.ndarray:
+    """Ranges mapped to [0, 1]: "linear" divides by range_max; "log" is log(r / 0.1 m) /
+    log(range_max / 0.1 m), which spreads the near field a policy must resolve to avoid bumps
+    (at a 10 m range_max: 0.2 m -> 0.15, 0.5 m -> 0.35, 1 m -> 0.5, where "linear" gives 0.02,
+    0.05, 0.1).
+
+    >>> scale_ranges(np.array([0.05, 1.0, 10.0, 20.0]), 10.0, "log").round(3).tolist()
+    [0.0, 0.5, 1.0, 1.0]
+    """
+    r = np.asarray(ranges, np.float64)
+    if scale == "linear":
+        return np.clip(r / range_max, 0.0, 1.0)
+    if scale == "log":
+        r0 = LOG_RANGE_MIN_M
+        return np.clip(np.log(np.maximum(r, r0) / r0) / math.log(range_max / r0), 0.0, 1.0)
+    raise ValueError(f"range scale must be one of {RANGE_SCALES}, got {scale!r}")
+
+
 def min_pool(
-    ranges: np.ndarray, starts: np.ndarray, range_max: float, normalize: bool = True, reduce: np.ufunc = np.minimum
+    ranges: np.ndarray,
+    starts: np.ndarray,
+    range_max: float,
+    normalize: bool = True,
+    reduce: np.ufunc = np.minimum,
+    scale: str = "linear",
 ) -> np.ndarray:
     """Each sector's minimum range (0 = "no hit" in the legacy convention, so read as range_max);
-    `reduce=np.maximum` gives each sector's maximum instead.
+    `reduce=np.maximum` gives each sector's maximum instead. `normalize` maps to [0, 1] with
+    `scale_ranges(..., scale)`.
 
     >>> min_pool(np.array([3.0, 1.0, 0.0, 5.0, 2.0, 4.0]), np.array([0, 3]), 10.0, normalize=False).tolist()
     [1.0, 2.0]
@@ -59,7 +88,7 @@ def min_pool(
     r = np.where(ranges > 0.0, ranges, range_max)
     pooled = reduce.reduceat(r, starts)
     if normalize:
-        pooled = np.clip(pooled / range_max, 0.0, 1.0)
+        pooled = scale_ranges(pooled, range_max, scale)
     return pooled.astype(np.float32)
 
 
@@ -95,18 +124,28 @@ def _env_config(env: gym.Env) -> Any:
 
 
 class MinPoolLrf(gym.ObservationWrapper):
-    """Down-sample `obs["lrf"]` to `n_sectors` sector minima, normalised to [0, 1] by range_max.
+    """Down-sample `obs["lrf"]` to `n_sectors` sector minima, normalised to [0, 1] by range_max
+    (`scale="log"`: on a log scale, see `scale_ranges`).
 
     `max_pool=True` adds `obs["lrf_max"]`, the sector maxima: min-pooling is safe but hides a
     narrow far gap (a corridor mouth across a large room) behind its sector's nearer beams.
     """
 
-    def __init__(self, env: gym.Env, n_sectors: int = 64, normalize: bool = True, max_pool: bool = False) -> None:
+    def __init__(
+        self,
+        env: gym.Env,
+        n_sectors: int = 64,
+        normalize: bool = True,
+        max_pool: bool = False,
+        scale: str = "linear",
+    ) -> None:
         super().__init__(env)
         lrf: LrfConfig = _env_config(env).lrf
+        if scale not in RANGE_SCALES:
+            raise ValueError(f"range scale must be one of {RANGE_SCALES}, got {scale!r}")
         self.starts = sector_starts(lrf.n_beams, n_sectors)
         self.range_max = lrf.range_max_m
-        self.normalize, self.max_pool = normalize, max_pool
+        self.normalize, self.max_pool, self.scale = normalize, max_pool, scale
         high = 1.0 if normalize else lrf.range_max_m
         spaces = dict(env.observation_space.spaces)
         spaces["lrf"] = gym.spaces.Box(0.0, high, (n_sectors,), np.float32)
@@ -116,9 +155,9 @@ class MinPoolLrf(gym.ObservationWrapper):
 
     def observation(self, observation: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         ranges = observation["lrf"]
-        out = {**observation, "lrf": min_pool(ranges, self.starts, self.range_max, self.normalize)}
+        out = {**observation, "lrf": min_pool(ranges, self.starts, self.range_max, self.normalize, scale=self.scale)}
         if self.max_pool:
-            out["lrf_max"] = min_pool(ranges, self.starts, self.range_max, self.normalize, np.maximum)
+            out["lrf_max"] = min_pool(ranges, self.starts, self.range_max, self.normalize, np.maximum, self.scale)
         return out
 
 
@@ -145,9 +184,9 @@ def _update_memory(memory, ranges, beam_angles, centres, heading, range_max):  #
     for b in range(n):
         if current[b] >= 0.0:
             memory[b] = current[b]
-    out = np.empty(n, np.float32)
+    out = np.empty(n)
     for j in range(n):
-        out[j] = memory[_bin(heading + centres[j], inv_width, n)] / range_max
+        out[j] = memory[_bin(heading + centres[j], inv_width, n)]
     return out
 
 
@@ -155,12 +194,16 @@ class RangeMemory:
     """The farthest range last seen in each of `n_bins` directions all around, kept in the
     odometry frame and read in the body frame (bin 0 = straight behind, counter-clockwise): a
     360-degree memory of the 229-degree LRF, so a corridor mouth seen once stays known after the
-    robot turns away from it. Bins never seen read 0.
+    robot turns away from it. Bins never seen read 0. Ranges are scaled to [0, 1] as
+    `scale_ranges(..., scale)` does.
     """
 
-    def __init__(self, beam_angles: np.ndarray, n_bins: int, range_max: float) -> None:
+    def __init__(self, beam_angles: np.ndarray, n_bins: int, range_max: float, scale: str = "linear") -> None:
         if n_bins < 4:
             raise ValueError(f"memory_sectors must be >= 4 (or 0 for none), got {n_bins}")
+        if scale not in RANGE_SCALES:
+            raise ValueError(f"range scale must be one of {RANGE_SCALES}, got {scale!r}")
+        self.scale = scale
         self.beam_angles = np.asarray(beam_angles, np.float64)
         self.width = 2.0 * math.pi / n_bins
         self.centres = -math.pi + (np.arange(n_bins) + 0.5) * self.width
@@ -173,17 +216,18 @@ class RangeMemory:
     def update(self, ranges: np.ndarray, heading: float) -> np.ndarray:
         """Store a scan taken at odometry heading `heading`; the memory in the body frame, in [0, 1]."""
         ranges = np.asarray(ranges, np.float64)
-        return _update_memory(self.memory, ranges, self.beam_angles, self.centres, heading, self.range_max)
+        raw = _update_memory(self.memory, ranges, self.beam_angles, self.centres, heading, self.range_max)
+        return scale_ranges(raw, self.range_max, self.scale).astype(np.float32)
 
 
 class LrfMemory(gym.Wrapper):
     """Add `obs["lrf_memory"]`: a `RangeMemory` of `n_bins` directions (apply before wrappers that
     replace `obs["lrf"]` or `obs["odom"]`)."""
 
-    def __init__(self, env: gym.Env, n_bins: int = 36) -> None:
+    def __init__(self, env: gym.Env, n_bins: int = 36, scale: str = "linear") -> None:
         super().__init__(env)
         lrf: LrfConfig = _env_config(env).lrf
-        self.memory = RangeMemory(lrf.beam_angles, n_bins, lrf.range_max_m)
+        self.memory = RangeMemory(lrf.beam_angles, n_bins, lrf.range_max_m, scale)
         spaces = dict(env.observation_space.spaces)
         spaces["lrf_memory"] = gym.spaces.Box(0.0, 1.0, (n_bins,), np.float32)
         self.observation_space = gym.spaces.Dict(spaces)
@@ -237,6 +281,8 @@ class LearningConfig:
         memory_sectors: bins of a 360-degree `RangeMemory` (0: none).
         frame_stack: how many of the latest frames the policy sees (oldest first).
         odometry: "velocity" (body-frame velocity from odometry) or "none".
+        range_scale: how ranges map to [0, 1]: "linear" or "log" (resolves the near field; see
+            `scale_ranges`).
     """
 
     n_sectors: int = 64
@@ -244,12 +290,15 @@ class LearningConfig:
     odometry: Literal["velocity", "none"] = "velocity"
     max_pool: bool = False
     memory_sectors: int = 0
+    range_scale: Literal["linear", "log"] = "linear"
 
     def __post_init__(self) -> None:
         if self.frame_stack < 1:
             raise ValueError(f"frame_stack must be >= 1, got {self.frame_stack}")
         if self.odometry not in ("velocity", "none"):
             raise ValueError(f"odometry must be 'velocity' or 'none', got {self.odometry!r}")
+        if self.range_scale not in RANGE_SCALES:
+            raise ValueError(f"range_scale must be one of {RANGE_SCALES}, got {self.range_scale!r}")
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -271,7 +320,9 @@ class LearningEncoder:
         self.range_max = lrf.range_max_m
         self.starts = sector_starts(lrf.n_beams, config.n_sectors)
         self.memory = (
-            RangeMemory(lrf.beam_angles, config.memory_sectors, lrf.range_max_m) if config.memory_sectors else None
+            RangeMemory(lrf.beam_angles, config.memory_sectors, lrf.range_max_m, config.range_scale)
+            if config.memory_sectors
+            else None
         )
         self.frame_size = (
             config.n_sectors * (2 if config.max_pool else 1)
@@ -288,9 +339,10 @@ class LearningEncoder:
         self._previous: np.ndarray | None = None
 
     def _frame(self, obs: dict[str, np.ndarray], velocity: np.ndarray) -> np.ndarray:
-        parts = [min_pool(obs["lrf"], self.starts, self.range_max)]
+        scale = self.config.range_scale
+        parts = [min_pool(obs["lrf"], self.starts, self.range_max, scale=scale)]
         if self.config.max_pool:
-            parts.append(min_pool(obs["lrf"], self.starts, self.range_max, reduce=np.maximum))
+            parts.append(min_pool(obs["lrf"], self.starts, self.range_max, reduce=np.maximum, scale=scale))
         if self.memory is not None:
             parts.append(self.memory.update(obs["lrf"], float(obs["odom"][2])))
         if self.config.odometry == "velocity":
@@ -331,11 +383,12 @@ class PicoLearningWrapper(gym.Wrapper):
         odometry: str = "velocity",
         max_pool: bool = False,
         memory_sectors: int = 0,
+        range_scale: str = "linear",
     ) -> None:
         config = _env_config(env)
         ones = np.ones(env.action_space.shape, np.float32)
         super().__init__(gym.wrappers.RescaleAction(env, -ones, ones))
-        self.learning = LearningConfig(n_sectors, frame_stack, odometry, max_pool, memory_sectors)  # type: ignore[arg-type]
+        self.learning = LearningConfig(n_sectors, frame_stack, odometry, max_pool, memory_sectors, range_scale)  # type: ignore[arg-type]
         self.encoder = LearningEncoder(config.lrf, config.robot, config.dt_s, self.learning)
         self.observation_space = self.encoder.space
 

@@ -16,6 +16,7 @@ from pico_gym.wrappers import (
     RangeMemory,
     min_pool,
     rescale_action,
+    scale_ranges,
     sector_starts,
     unit_action,
 )
@@ -85,18 +86,20 @@ def test_learning_wrapper_shapes_and_bounds(n_sectors, frame_stack):
             obs, _ = env.reset()
 
 
-@pytest.mark.parametrize("max_pool,memory", [(False, 0), (True, 0), (False, 24)])
-def test_learning_wrapper_equals_the_chain_of_standard_wrappers(max_pool, memory):
+@pytest.mark.parametrize(
+    "max_pool,memory,scale", [(False, 0, "linear"), (True, 0, "linear"), (False, 24, "linear"), (True, 24, "log")]
+)
+def test_learning_wrapper_equals_the_chain_of_standard_wrappers(max_pool, memory, scale):
     def chain():
         env = gym.make("PicoEscape-v0", noise_m=0.02, slip_std=0.05)
         if memory:
-            env = LrfMemory(env, memory)
-        env = FlattenObservation(OdomVelocity(MinPoolLrf(env, n_sectors=32, max_pool=max_pool)))
+            env = LrfMemory(env, memory, scale=scale)
+        env = FlattenObservation(OdomVelocity(MinPoolLrf(env, n_sectors=32, max_pool=max_pool, scale=scale)))
         env = FlattenObservation(FrameStackObservation(env, 3))
         return RescaleAction(env, -1.0, 1.0)
 
     env = gym.make("PicoEscape-v0", noise_m=0.02, slip_std=0.05)
-    a, b = chain(), PicoLearningWrapper(env, 32, 3, max_pool=max_pool, memory_sectors=memory)
+    a, b = chain(), PicoLearningWrapper(env, 32, 3, max_pool=max_pool, memory_sectors=memory, range_scale=scale)
     assert a.observation_space.shape == b.observation_space.shape
     oa, _ = a.reset(seed=11)
     ob, _ = b.reset(seed=11)
@@ -127,6 +130,24 @@ def test_bad_settings_are_named():
         LearningConfig(odometry="pose")
     with pytest.raises(TypeError, match="not a pico-gym env"):
         MinPoolLrf(gym.make("CartPole-v1"))
+    with pytest.raises(ValueError, match="range_scale"):
+        LearningConfig(range_scale="sqrt")
+    with pytest.raises(ValueError, match="range scale"):
+        MinPoolLrf(gym.make("PicoEscape-v0"), scale="sqrt")
+
+
+def test_log_range_scale_resolves_the_near_field():
+    r = np.array([0.0, 0.05, 0.1, 0.2, 0.5, 1.0, 5.0, 10.0, 30.0])
+    log = scale_ranges(r, 10.0, "log")
+    lin = scale_ranges(r, 10.0, "linear")
+    assert np.all((0.0 <= log) & (log <= 1.0)) and np.all(np.diff(log) >= 0.0)  # monotone, in [0, 1]
+    np.testing.assert_allclose(log[[2, 5, 7]], [0.0, 0.5, 1.0])
+    np.testing.assert_allclose(lin, np.clip(r / 10.0, 0.0, 1.0))
+    # Between touching (0.2 m from the LRF to the side) and 0.5 m: 7x the linear scale's spread.
+    assert (log[4] - log[3]) > 6.0 * (lin[4] - lin[3])
+    # min_pool normalises with the same scale
+    pooled = min_pool(np.array([0.3, 0.2, 4.0, 0.0]), np.array([0, 2]), 10.0, scale="log")
+    np.testing.assert_allclose(pooled, scale_ranges(np.array([0.2, 4.0]), 10.0, "log"), rtol=1e-6)
 
 
 def test_range_memory_remembers_what_turned_out_of_view():
