@@ -42,6 +42,9 @@ from pico_gym.overlay import Overlay
 from pico_gym.types import FloatArray, Pose
 from pico_gym.world.geometry import wrap_angle
 
+# In APPROACH the set-point may lie at most this far off the heading [rad] (the LRF sees +-114 deg).
+APPROACH_BEARING = 1.5
+
 
 @dataclass(frozen=True)
 class ClassicConfig:
@@ -284,6 +287,14 @@ class ClassicAgent(Agent):
             self._plan(here, front)
         target = self._lookahead(here, front)
         self.target = target
+        # Keep the way ahead in view: turn towards the corridor's sideways heading only as far as
+        # the set-point stays within APPROACH_BEARING of the heading (a set-point behind the robot
+        # would leave it zigzagging along the edge of the LRF's view).
+        to_target = target - here
+        if float(np.hypot(*to_target)) > 0.2:
+            travel = math.atan2(to_target[1], to_target[0])
+            heading = travel + float(np.clip(wrap_angle(heading - travel), -APPROACH_BEARING, APPROACH_BEARING))
+            heading_error = abs(wrap_angle(heading - pose.theta))
         v = attract_and_repel(obstacles, self._to_robot(target), self.motion)
         w = (
             heading_rate(heading - pose.theta, self.motion)

@@ -136,11 +136,47 @@ def safety_filter(
     if len(near) == 0:
         return command
     floor = np.minimum(cfg.margin, d_now - cfg.slack)
-    for scale in (1.0, 0.7, 0.45, 0.25, 0.1, 0.0):
-        cvx, cvy, cw = vx * scale, vy * scale, w * scale
-        ok = all(
+
+    def safe(cvx: float, cvy: float, cw: float) -> bool:
+        return all(
             bool(np.all(_distances_after(near, cvx, cvy, cw, cfg.horizon * f, cfg) >= floor)) for f in (0.34, 0.67, 1.0)
         )
-        if ok:
+
+    if safe(vx, vy, w):
+        return command
+    for scale in (0.7, SLIDE, 0.45, 0.25, 0.1, 0.0):
+        if scale is SLIDE:
+            slid = _slide(near, floor, (vx, vy, w), cfg)
+            if slid is not None and safe(*slid):
+                return slid
+            continue
+        cvx, cvy, cw = vx * scale, vy * scale, w * scale
+        if safe(cvx, cvy, cw):
             return cvx, cvy, cw
     return 0.0, 0.0, 0.0
+
+
+SLIDE = object()  # in the filter's list of fall-backs: slide along the point in the way
+
+
+def _slide(
+    points: FloatArray, floor: FloatArray, command: tuple[float, float, float], cfg: MotionConfig
+) -> tuple[float, float, float] | None:
+    """The command without its translation towards the point it would hit worst, or None.
+
+    Scaling a command down keeps its direction: at a corridor's mouth, where the corner ahead
+    blocks the way on and a step sideways would clear it, that only creeps into the corner.
+    Sliding keeps moving past it. None when too little of the command would be left.
+    """
+    vx, vy, w = command
+    deficit = floor - _distances_after(points, vx, vy, w, cfg.horizon, cfg)
+    worst = int(np.argmax(deficit))
+    n = footprint_distance(points[worst : worst + 1], cfg)[1][0]  # from the footprint to the point
+    v = np.array([vx, vy])
+    towards = float(v @ n)
+    if towards <= 0.0:
+        return None
+    slid = v - towards * n
+    if float(np.hypot(*slid)) < 0.1 * float(np.hypot(*v)):
+        return None
+    return float(slid[0]), float(slid[1]), w
