@@ -97,3 +97,19 @@ def test_a_point_already_too_close_blocks_only_motion_towards_it() -> None:
     points = np.vstack([wall_ahead, stale])
     vx, _, _ = safety_filter(points, (0.5, 0.0, 0.0), CFG)
     assert vx * CFG.horizon <= 0.1 - CFG.margin + 1e-6  # the wall ahead still counts
+
+
+def test_safety_filter_slides_past_a_corner_instead_of_creeping_into_it() -> None:
+    # Driving sideways (+y) into a corridor whose mouth corner overlaps the footprint by 6 cm:
+    # the wall beside the mouth runs along y = 0.3 from x = 0.04 outwards.
+    corner_wall = np.column_stack([np.linspace(0.04, 1.0, 40), np.full(40, 0.3)])
+    vx, vy, w = safety_filter(corner_wall, (-0.135, 0.47, 0.0), CFG)
+    assert vx < -0.1  # keeps the step sideways that clears the corner, at its full speed
+    assert abs(vy) < 1e-9  # and does not creep towards the wall
+    d_now = footprint_distance(corner_wall, CFG)[0].min()
+    d_next = footprint_distance(corner_wall - np.array([vx, vy]) * CFG.horizon, CFG)[0].min()
+    assert d_next >= min(CFG.margin, d_now - CFG.slack) - 1e-9
+    # A command straight at a wall has nothing to slide along: it is only slowed down.
+    wall = np.column_stack([np.full(50, 0.2), np.linspace(-1, 1, 50)])
+    vx, vy, _ = safety_filter(wall, (0.5, 0.0, 0.0), CFG)
+    assert abs(vy) < 1e-9 and 0.0 <= vx < 0.5
