@@ -144,19 +144,16 @@ def safety_filter(
 
     if safe(vx, vy, w):
         return command
-    for scale in (0.7, SLIDE, 0.45, 0.25, 0.1, 0.0):
-        if scale is SLIDE:
-            slid = _slide(near, floor, (vx, vy, w), cfg)
-            if slid is not None and safe(*slid):
-                return slid
-            continue
-        cvx, cvy, cw = vx * scale, vy * scale, w * scale
-        if safe(cvx, cvy, cw):
-            return cvx, cvy, cw
+    if safe(0.7 * vx, 0.7 * vy, 0.7 * w):
+        return 0.7 * vx, 0.7 * vy, 0.7 * w
+    # Before slowing down further, try sliding along the point in the way.
+    slid = _slide(near, floor, (vx, vy, w), cfg)
+    if slid is not None and safe(*slid):
+        return slid
+    for scale in (0.45, 0.25, 0.1, 0.0):
+        if safe(vx * scale, vy * scale, w * scale):
+            return vx * scale, vy * scale, w * scale
     return 0.0, 0.0, 0.0
-
-
-SLIDE = object()  # in the filter's list of fall-backs: slide along the point in the way
 
 
 def _slide(
