@@ -171,7 +171,7 @@ def _bin(angle, inv_width, n):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(cache=True)
-def _update_memory(memory, ranges, beam_angles, centres, heading, range_max):  # type: ignore[no-untyped-def]
+def _update_memory(memory, ranges, beam_angles, centres, heading, range_max, log_scale):  # type: ignore[no-untyped-def]
     n = memory.shape[0]
     inv_width = n / (2.0 * math.pi)
     heading = heading % (2.0 * math.pi)  # [0, 2 pi); beam and centre angles are within [-pi, pi]
@@ -184,9 +184,13 @@ def _update_memory(memory, ranges, beam_angles, centres, heading, range_max):  #
     for b in range(n):
         if current[b] >= 0.0:
             memory[b] = current[b]
-    out = np.empty(n)
+    out = np.empty(n, np.float32)
+    r0 = LOG_RANGE_MIN_M
+    log_span = math.log(range_max / r0)
     for j in range(n):
-        out[j] = memory[_bin(heading + centres[j], inv_width, n)]
+        r = memory[_bin(heading + centres[j], inv_width, n)]
+        v = math.log(max(r, r0) / r0) / log_span if log_scale else r / range_max  # as scale_ranges
+        out[j] = min(max(v, 0.0), 1.0)
     return out
 
 
@@ -216,8 +220,9 @@ class RangeMemory:
     def update(self, ranges: np.ndarray, heading: float) -> np.ndarray:
         """Store a scan taken at odometry heading `heading`; the memory in the body frame, in [0, 1]."""
         ranges = np.asarray(ranges, np.float64)
-        raw = _update_memory(self.memory, ranges, self.beam_angles, self.centres, heading, self.range_max)
-        return scale_ranges(raw, self.range_max, self.scale).astype(np.float32)
+        return _update_memory(
+            self.memory, ranges, self.beam_angles, self.centres, heading, self.range_max, self.scale == "log"
+        )
 
 
 class LrfMemory(gym.Wrapper):

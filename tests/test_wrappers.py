@@ -148,6 +148,12 @@ def test_log_range_scale_resolves_the_near_field():
     # min_pool normalises with the same scale
     pooled = min_pool(np.array([0.3, 0.2, 4.0, 0.0]), np.array([0, 2]), 10.0, scale="log")
     np.testing.assert_allclose(pooled, scale_ranges(np.array([0.2, 4.0]), 10.0, "log"), rtol=1e-6)
+    # and so does the range memory
+    angles = np.linspace(-2.0, 2.0, 1000)
+    ranges = np.random.default_rng(3).uniform(0.05, 12.0, 1000)
+    linear = RangeMemory(angles, 36, 10.0).update(ranges, 0.4)
+    logged = RangeMemory(angles, 36, 10.0, "log").update(ranges, 0.4)
+    np.testing.assert_allclose(logged, scale_ranges(linear.astype(np.float64) * 10.0, 10.0, "log"), atol=1e-5)
 
 
 def test_range_memory_remembers_what_turned_out_of_view():
