@@ -8,6 +8,29 @@ import numpy as np
 
 REFERENCE_MAPS = Path(__file__).resolve().parent / "data"  # copies of the course reference maps
 
+# The documented fields of `pico-gym bench` / `compare` JSON: one record per episode, a summary.
+EPISODE_FIELDS = {
+    "seed",
+    "map",
+    "success",
+    "termination_reason",
+    "time_s",
+    "bumps",
+    "path_length",
+    "shortest_path_length",
+    "min_clearance",
+}
+SUMMARY_FIELDS = {
+    "success_rate",
+    "bump_rate",
+    "idle",
+    "timeout",
+    "escape_time_median_s",
+    "escape_time_p90_s",
+    "spl",
+    "sct_median",
+}
+
 
 def box_room(half: float = 2.0) -> dict:
     """A closed square room of side 2*half centred on the origin (pico-gym JSON)."""

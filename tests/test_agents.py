@@ -9,6 +9,7 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 import pytest
+from helpers import EPISODE_FIELDS, SUMMARY_FIELDS
 
 import pico_gym  # noqa: F401
 from agents import AGENTS, make_agent
@@ -138,27 +139,8 @@ def test_bench_json_has_the_documented_fields(tmp_path: Path, capsys: pytest.Cap
     data = json.loads(out.read_text())
     assert [e["seed"] for e in data["episodes"]] == [7, 8, 9]
     for e in data["episodes"]:
-        assert {
-            "seed",
-            "map",
-            "success",
-            "termination_reason",
-            "time_s",
-            "bumps",
-            "path_length",
-            "shortest_path_length",
-            "min_clearance",
-        } <= set(e)
-    assert {
-        "success_rate",
-        "bump_rate",
-        "idle",
-        "timeout",
-        "escape_time_median_s",
-        "escape_time_p90_s",
-        "spl",
-        "sct_median",
-    } <= set(data["summary"])
+        assert EPISODE_FIELDS <= set(e)
+    assert SUMMARY_FIELDS <= set(data["summary"])
     assert 0.0 <= data["summary"]["success_rate"] <= 1.0 and not math.isnan(data["summary"]["spl"])
 
 
