@@ -209,6 +209,41 @@ def test_proximity_term_grows_towards_a_wall_and_is_off_by_default() -> None:
         gym.make("PicoEscape-v0", rewards={"proximity_m": 0.0})
 
 
+def test_approach_term_is_potential_based_shaping_towards_walls() -> None:
+    k, approach_m = 4.0, 0.3
+
+    def closeness(clearance: float) -> float:
+        return max(0.0, 1.0 - clearance / approach_m)
+
+    def drive(vx: float, x: float = 1.0, **options):
+        env = gym.make("PicoEscape-v0", map="escape_2018", wheel_noise=0.0, **options)
+        _, info = env.reset(seed=0, options={"start_pose": (x, 1.0, np.pi)})  # facing the wall x = 0
+        clearances, terms = [info["clearance"]], []
+        for _ in range(40):
+            _, _, terminated, _, info = env.step(np.array([vx, 0.0, 0.0]))
+            clearances.append(info["clearance"])
+            terms.append(info["reward_terms"]["approach"])
+            if terminated:
+                break
+        return clearances, terms, info
+
+    _, terms, _ = drive(0.5)
+    assert all(t == 0.0 for t in terms)  # off by default
+    rewards = {"approach": k, "approach_m": approach_m}
+    clearances, terms, info = drive(0.5, rewards=rewards)
+    assert info["termination_reason"] == "bump"
+    assert all(t <= 0.0 for t in terms) and sum(t < 0.0 for t in terms) >= 3  # closing in costs
+    # It telescopes: the episode's sum is k times the closeness at the start minus at the end.
+    assert sum(terms) == pytest.approx(k * (closeness(clearances[0]) - closeness(clearances[-1])))
+    # Backing away from the same wall, from 0.1 m, pays it back.
+    clearances, away, _ = drive(-0.5, x=0.2, rewards=rewards)
+    assert clearances[0] == pytest.approx(0.1) and all(t >= 0.0 for t in away)
+    assert sum(away) == pytest.approx(k * (closeness(0.1) - closeness(clearances[-1])))
+    assert sum(away) > 0.5 * k * closeness(0.1)
+    with pytest.raises(ValueError, match="approach_m"):
+        gym.make("PicoEscape-v0", rewards={"approach_m": -1.0})
+
+
 def test_idle_ends_after_30_seconds() -> None:
     env = gym.make("PicoEscape-v0")
     env.reset(seed=0)

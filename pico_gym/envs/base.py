@@ -175,6 +175,7 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         geodesic = self.episode.field.lookup(pose.x, pose.y)
         progress = self._geodesic - geodesic if math.isfinite(geodesic) and math.isfinite(self._geodesic) else 0.0
         self._geodesic = geodesic
+        previous_clearance = self._clearance
         self._clearance = self._footprint_clearance(pose)
         self._min_clearance = min(self._min_clearance, self._clearance)
         new_bumps = self.physics.bumps - bumps_before
@@ -182,7 +183,9 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
             self.bump_points.append(pose)
         self.trajectory.append(pose)
 
-        outcome = self.task.evaluate(pose, progress, new_bumps, self.physics.bumps, self._idle_s, dt, self._clearance)
+        outcome = self.task.evaluate(
+            pose, progress, new_bumps, self.physics.bumps, self._idle_s, dt, self._clearance, previous_clearance
+        )
         reason = outcome.termination_reason
         terminated = reason is not None
         truncated = not terminated and self.sim_time_s >= task_cfg.time_limit_s - 1e-9

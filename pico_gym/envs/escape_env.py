@@ -41,8 +41,10 @@ class PicoEscapeEnv(PicoEnv):
     A sum of named terms, each weighted (`rewards=` / `RewardWeights`) and reported in
     `info["reward_terms"]`: `progress` (metres of decrease of the geodesic distance to the finish
     line, weight 1), `success` (10 on escape), `bump` (-10 per bump), `time` (-0.1 per second),
-    and `proximity` (off by default: with weight k, -k per second times max(0, 1 - clearance /
-    proximity_m), a dense warning before a bump).
+    `proximity` (off by default: with weight k, -k per second times max(0, 1 - clearance /
+    proximity_m), a dense warning before a bump), and `approach` (off by default: with weight k,
+    k times the step's change of max(0, 1 - clearance / approach_m), negative while closing in on
+    a wall; potential-based shaping, so it cannot be farmed and does not tax a corridor).
     The geodesic field is computed once per reset from the true map; it shapes the reward only.
 
     ## Starting State

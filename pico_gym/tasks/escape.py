@@ -41,6 +41,12 @@ class RewardWeights:
             (the term is minus the step's duration times max(0, 1 - clearance / proximity_m)): a
             dense warning before a bump. Off by default.
         proximity_m: the footprint clearance under which the proximity term starts [m].
+        approach: per unit of "closeness" gained towards the walls, closeness being
+            max(0, 1 - clearance / approach_m) (the term is closeness before the step minus after).
+            Potential-based shaping (Ng et al., 1999): over an episode it sums to the closeness at
+            the start minus at the end, so it warns while the robot closes in on a wall without
+            taxing a narrow corridor it drives along. Off by default.
+        approach_m: the footprint clearance under which closeness starts to grow [m].
     """
 
     progress: float = 1.0
@@ -49,10 +55,13 @@ class RewardWeights:
     time: float = 0.1
     proximity: float = 0.0
     proximity_m: float = 0.1
+    approach: float = 0.0
+    approach_m: float = 0.25
 
     def __post_init__(self) -> None:
-        if self.proximity_m <= 0:
-            raise ValueError(f"RewardWeights.proximity_m must be positive, got {self.proximity_m}")
+        for name in ("proximity_m", "approach_m"):
+            if getattr(self, name) <= 0:
+                raise ValueError(f"RewardWeights.{name} must be positive, got {getattr(self, name)}")
 
 
 @dataclass(frozen=True)
@@ -253,26 +262,39 @@ class EscapeTask:
         idle_s: float,
         dt_s: float,
         clearance_m: float = math.inf,
+        previous_clearance_m: float = math.inf,
     ) -> StepOutcome:
         """Judge one step: its reward terms, and why the episode ends now (or None)."""
         escaped = self.past_finish(pose) > 0.0
         return StepOutcome(
-            self.reward_terms(progress_m, escaped, new_bumps, dt_s, clearance_m),
+            self.reward_terms(progress_m, escaped, new_bumps, dt_s, clearance_m, previous_clearance_m),
             self.termination(escaped, bumps, idle_s),
             escaped,
         )
 
     def reward_terms(
-        self, progress_m: float, escaped: bool, new_bumps: int, dt_s: float, clearance_m: float = math.inf
+        self,
+        progress_m: float,
+        escaped: bool,
+        new_bumps: int,
+        dt_s: float,
+        clearance_m: float = math.inf,
+        previous_clearance_m: float = math.inf,
     ) -> dict[str, float]:
-        """The weighted reward terms of one step (clearance_m: the footprint's, after the step)."""
+        """The weighted reward terms of one step (clearance_m and previous_clearance_m: the
+        footprint's, after and before the step)."""
         w = self.config.rewards
+
+        def closeness(clearance: float) -> float:
+            return max(0.0, 1.0 - clearance / w.approach_m)
+
         return {
             "progress": w.progress * progress_m,
             "success": w.success * float(escaped),
             "bump": -w.bump * new_bumps,
             "time": -w.time * dt_s,
             "proximity": -w.proximity * dt_s * max(0.0, 1.0 - clearance_m / w.proximity_m),
+            "approach": w.approach * (closeness(previous_clearance_m) - closeness(clearance_m)),
         }
 
     def termination(self, escaped: bool, bumps: int, idle_s: float) -> str | None:
