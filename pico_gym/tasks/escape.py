@@ -146,6 +146,11 @@ def is_enclosed(x: float, y: float, segments: FloatArray) -> bool:
     return float(hits.mean()) >= ENCLOSED_FRACTION
 
 
+def _closeness(clearance_m: float, within_m: float) -> float:
+    """0 at `within_m` or more from the walls, rising to 1 at contact: max(0, 1 - clearance / within_m)."""
+    return max(0.0, 1.0 - clearance_m / within_m)
+
+
 class StepOutcome(NamedTuple):
     """The task's verdict on a step."""
 
@@ -284,17 +289,14 @@ class EscapeTask:
         """The weighted reward terms of one step (clearance_m and previous_clearance_m: the
         footprint's, after and before the step)."""
         w = self.config.rewards
-
-        def closeness(clearance: float) -> float:
-            return max(0.0, 1.0 - clearance / w.approach_m)
-
         return {
             "progress": w.progress * progress_m,
             "success": w.success * float(escaped),
             "bump": -w.bump * new_bumps,
             "time": -w.time * dt_s,
-            "proximity": -w.proximity * dt_s * max(0.0, 1.0 - clearance_m / w.proximity_m),
-            "approach": w.approach * (closeness(previous_clearance_m) - closeness(clearance_m)),
+            "proximity": -w.proximity * dt_s * _closeness(clearance_m, w.proximity_m),
+            "approach": w.approach
+            * (_closeness(previous_clearance_m, w.approach_m) - _closeness(clearance_m, w.approach_m)),
         }
 
     def termination(self, escaped: bool, bumps: int, idle_s: float) -> str | None:
