@@ -1,7 +1,7 @@
 """pico-gym's agents, all behind one interface: `make_agent(name, env)`.
 
 >>> import gymnasium as gym, pico_gym
->>> from agents import make_agent
+>>> from pico_gym.agents import make_agent
 >>> env = gym.make("PicoEscape-v0")
 >>> agent = make_agent("classic", env)
 >>> obs, info = env.reset(seed=0); agent.reset(obs, info)
@@ -14,8 +14,7 @@ from __future__ import annotations
 from typing import Any
 
 import gymnasium as gym
-
-from agents.base import Agent, RobotSpec
+from pico_gym.agents.base import Agent, RobotSpec
 
 AGENTS = ("classic", "ppo", "wall-follow", "random")
 
@@ -34,19 +33,19 @@ def make_agent(name: str, env: gym.Env, **kwargs: Any) -> Agent:
     """
     spec = RobotSpec.of(env)
     if name == "classic":
-        from agents.classic.agent import ClassicAgent
+        from pico_gym.agents.classic.agent import ClassicAgent
 
         return ClassicAgent(spec, **kwargs)
     if name == "ppo":
-        from agents.ppo import PpoAgent
+        from pico_gym.agents.ppo import PpoAgent
 
         return PpoAgent(spec, **kwargs)
     if name == "wall-follow":
-        from agents.baselines import WallFollowAgent
+        from pico_gym.agents.baselines import WallFollowAgent
 
         return WallFollowAgent(spec, **kwargs)
     if name == "random":
-        from agents.baselines import RandomAgent
+        from pico_gym.agents.baselines import RandomAgent
 
         return RandomAgent(spec, **kwargs)
     raise ValueError(f"unknown agent {name!r}; agents: {', '.join(AGENTS)}")

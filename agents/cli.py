@@ -13,7 +13,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from agents import AGENTS
+from pico_gym.agents import AGENTS
 
 
 def _env_options(args: argparse.Namespace) -> dict[str, Any]:
@@ -54,10 +54,10 @@ def _agent_kwargs(args: argparse.Namespace, agent: str) -> dict[str, Any]:
 
 def cmd_run(args: argparse.Namespace) -> int:
     import gymnasium as gym
+    from pico_gym.agents import make_agent
+    from pico_gym.agents.evaluation import run_episode
 
     import pico_gym  # noqa: F401
-    from agents import make_agent
-    from agents.evaluation import run_episode
     from pico_gym.render import save_gif
 
     mode = "human" if args.render == "human" else ("rgb_array" if args.gif or args.video else None)
@@ -91,9 +91,8 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
+    from pico_gym.agents.evaluation import format_summary, run_episodes, summarize
     from tqdm import tqdm
-
-    from agents.evaluation import format_summary, run_episodes, summarize
 
     options = _env_options(args)
     seeds = range(args.seed, args.seed + args.episodes)
@@ -142,9 +141,8 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
+    from pico_gym.agents.compare import Episodes, compare, markdown_table
     from tqdm import tqdm
-
-    from agents.compare import Episodes, compare, markdown_table
 
     agents = [a.strip() for a in args.agents.split(",") if a.strip()]
     unknown = [a for a in agents if a not in AGENTS]

@@ -25,10 +25,10 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
+from pico_gym.agents import make_agent
+from pico_gym.agents.evaluation import EpisodeRecord, Summary, run_episode, run_episodes, summarize
 
 import pico_gym  # noqa: F401
-from agents import make_agent
-from agents.evaluation import EpisodeRecord, Summary, run_episode, run_episodes, summarize
 from pico_gym.world.catalog import shipped_maps
 
 SUITES = ("generated", "maps", "all")

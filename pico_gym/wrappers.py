@@ -28,9 +28,9 @@ from dataclasses import asdict, dataclass
 from typing import Any, Literal
 
 import gymnasium as gym
-import numba
 import numpy as np
 
+from pico_gym.jit import njit
 from pico_gym.robot import RobotConfig
 from pico_gym.sensors.lrf import LrfConfig
 
@@ -161,7 +161,7 @@ class MinPoolLrf(gym.ObservationWrapper):
         return out
 
 
-@numba.njit(cache=True)
+@njit
 def _bin(angle, inv_width, n):  # type: ignore[no-untyped-def]
     """The bin of an angle in [-4 pi, 4 pi] (cheaper than a float modulo)."""
     b = int((angle + 4.0 * math.pi) * inv_width)  # >= 0
@@ -170,7 +170,7 @@ def _bin(angle, inv_width, n):  # type: ignore[no-untyped-def]
     return b
 
 
-@numba.njit(cache=True)
+@njit
 def _update_memory(memory, ranges, beam_angles, centres, heading, range_max, log_scale):  # type: ignore[no-untyped-def]
     n = memory.shape[0]
     inv_width = n / (2.0 * math.pi)

@@ -6,9 +6,8 @@ import math
 
 import numpy as np
 import pytest
-
-from agents.classic.astar import astar, line_is_free, string_pull
-from agents.classic.potential_field import (
+from pico_gym.agents.classic.astar import astar, line_is_free, string_pull
+from pico_gym.agents.classic.potential_field import (
     MotionConfig,
     attract_and_repel,
     footprint_distance,

@@ -1,4 +1,5 @@
-"""`pip install .` (not editable) ships the maps and registers the env, from any directory."""
+"""`pip install .` (not editable) ships the maps and registers the env, from any directory; it adds
+one import name, `pico_gym`, and running it writes nothing into the installed package."""
 
 from __future__ import annotations
 
@@ -35,6 +36,8 @@ def test_regular_install_works_from_another_directory(tmp_path: Path) -> None:
         "import gymnasium as gym, pico_gym; "
         f"assert pico_gym.__file__.startswith({str(target)!r}), pico_gym.__file__; "
         "env = gym.make('PicoEscape-v0', map='escape_2019'); obs, info = env.reset(seed=0); "
+        "from pico_gym.agents import make_agent; agent = make_agent('classic', env); agent.reset(obs, info); "
+        "agent.act(obs); "
         "from pico_gym.world.catalog import shipped_maps; print(len(shipped_maps()), obs['lrf'].shape)"
     )
     run = subprocess.run(
@@ -42,9 +45,18 @@ def test_regular_install_works_from_another_directory(tmp_path: Path) -> None:
         cwd=tmp_path,
         capture_output=True,
         text=True,
-        env={"PYTHONPATH": str(target), "PATH": "/usr/bin:/bin"},
+        env={"PYTHONPATH": str(target), "PATH": "/usr/bin:/bin", "NUMBA_CACHE_DIR": str(tmp_path / "numba")},
     )
     assert run.returncode == 0, run.stderr
     assert int(run.stdout.split()[0]) >= 6  # the shipped maps came along
     assert (target / "pico_gym" / "maps" / "escape_2018.json").is_file()
     assert (target / "pico_gym" / "maps" / "escape_room_student_2019.png").is_file()
+    # One namespace: nothing but pico_gym (and its metadata) at the top level.
+    top_level = {p.name for p in target.iterdir() if not p.name.endswith(".dist-info") and p.name != "bin"}
+    assert top_level == {"pico_gym"}, top_level
+    assert (target / "pico_gym" / "agents" / "classic" / "agent.py").is_file()
+    assert (target / "pico_gym" / "train" / "configs" / "ppo_escape.yaml").is_file()
+    # numba's cache went to the user cache directory, not into the package (an uninstall would
+    # leave such files behind as namespace-package folders that shadow a later install).
+    assert not list(target.rglob("*.nbi")) and not list(target.rglob("*.nbc"))
+    assert list((tmp_path / "numba").rglob("*.nbi"))

@@ -6,9 +6,9 @@ import math
 
 import numpy as np
 import pytest
+from pico_gym.agents.classic.features import extract_features, find_corners
+from pico_gym.agents.classic.split_merge import preprocess, split_and_merge
 
-from agents.classic.features import extract_features, find_corners
-from agents.classic.split_merge import preprocess, split_and_merge
 from pico_gym.sensors.lrf import LrfConfig, lrf_ranges
 from pico_gym.types import Pose
 
@@ -138,7 +138,7 @@ def test_shadow_behind_an_obstacle_is_not_an_exit() -> None:
 
 
 def test_corners_need_two_lines() -> None:
-    from agents.classic.split_merge import Lines
+    from pico_gym.agents.classic.split_merge import Lines
 
     one = Lines(np.array([[0.0, 0.0, 1.0, 0.0]]), np.array([[0, 10]]), np.array([0]))
     assert find_corners(one) == []

@@ -37,11 +37,11 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 import yaml
+from pico_gym.agents.base import RobotSpec
+from pico_gym.agents.evaluation import run_episode, summarize
+from pico_gym.agents.ppo import PpoAgent, save_policy
 
 import pico_gym
-from agents.base import RobotSpec
-from agents.evaluation import run_episode, summarize
-from agents.ppo import PpoAgent, save_policy
 from pico_gym.wrappers import LearningConfig
 
 TRAIN_SEED_MIN = 1_000_000
@@ -292,7 +292,8 @@ def _callbacks() -> Any:
 # --- behaviour cloning ---------------------------------------------------------------------
 def collect_demonstrations(config: TrainConfig, episodes: int, teacher: str = "classic") -> tuple[Any, Any, dict]:
     """(policy inputs, unit actions) of `teacher` on `episodes` training-seed rooms."""
-    from agents import make_agent
+    from pico_gym.agents import make_agent
+
     from pico_gym.wrappers import LearningEncoder, unit_action
 
     env = gym.make(config.env_id, **{**config.pico["env_kwargs"], **config.pico["train_env_kwargs"]})
@@ -495,7 +496,7 @@ def train(
     )
     _copy_progress(run_dir)
     try:
-        from train.plots import plot_learning_curve
+        from pico_gym.train.plots import plot_learning_curve
 
         plot_learning_curve(run_dir, run_dir / "learning_curve.png")
     except ImportError:

@@ -14,9 +14,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 
+from pico_gym.jit import njit
 from pico_gym.types import FloatArray
 
 # Consecutive points farther apart than this start a new section [m]; exits are >= 0.5 m wide.
@@ -96,7 +96,7 @@ def preprocess(
     return Scan(np.column_stack([rr * np.cos(a), rr * np.sin(a)]), beams, rr)
 
 
-@numba.njit(cache=True)
+@njit
 def _split(points: FloatArray, start: int, end: int, threshold: float, out_breaks: np.ndarray) -> int:
     """Iterative split of points[start..end] (inclusive); writes break indices, returns their count."""
     stack = [(start, end)]

@@ -12,10 +12,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-import numba
 import numpy as np
+from pico_gym.agents.classic.features import Exit
 
-from agents.classic.features import Exit
+from pico_gym.jit import njit
 from pico_gym.types import FloatArray, Pose
 from pico_gym.world.geometry import compose, transform_points
 
@@ -48,7 +48,7 @@ class ExitTrack:
         return float(np.linalg.norm(self.b - self.a))
 
 
-@numba.njit(cache=True)
+@njit
 def _icp_pairs(
     points: FloatArray, grid: np.ndarray, x0: float, y0: float, cell: float, since: int
 ) -> tuple[FloatArray, FloatArray]:

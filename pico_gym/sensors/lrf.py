@@ -18,9 +18,9 @@ from dataclasses import dataclass
 from typing import Literal
 
 import gymnasium as gym
-import numba
 import numpy as np
 
+from pico_gym.jit import njit
 from pico_gym.types import FloatArray, Pose, Segments
 
 # PICO's laser (emc_simulator, PICO era): 1000 beams, -2..2 rad, 0.01..10 m, U(-0.01, 0.01) noise.
@@ -84,7 +84,7 @@ class LrfConfig:
         return 0.0 if self.n_beams == 1 else (self.angle_max_rad - self.angle_min_rad) / (self.n_beams - 1)
 
 
-@numba.njit(cache=True)
+@njit
 def _cast(
     x: float,
     y: float,
@@ -155,7 +155,7 @@ def _cast(
                     out[i] = r
 
 
-@numba.njit(cache=True)
+@njit
 def _noisy(
     ranges: FloatArray, unit: FloatArray, noise: float, rmin: float, rmax: float, no_hit: float, out: np.ndarray
 ) -> None:

@@ -10,9 +10,9 @@ import math
 from dataclasses import dataclass, field
 from typing import Literal, NamedTuple
 
-import numba
 import numpy as np
 
+from pico_gym.jit import njit
 from pico_gym.robot import RobotConfig
 from pico_gym.sensors.lrf import lrf_ranges
 from pico_gym.types import FloatArray, Pose
@@ -101,7 +101,7 @@ class EscapeTaskConfig:
             raise ValueError("time_limit_s and idle_time_s must be positive")
 
 
-@numba.njit(cache=True)
+@njit
 def _min_signed_distance(
     x: float, y: float, theta: float, outline: FloatArray, px: float, py: float, nx: float, ny: float
 ) -> float:

@@ -10,15 +10,15 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 
+from pico_gym.jit import njit
 from pico_gym.types import FloatArray, Pose, Segments
 
 TWO_PI = 2.0 * math.pi
 
 
-@numba.njit(cache=True)
+@njit
 def wrap_angle(angle: float) -> float:
     """Wrap an angle to [-pi, pi).
 
@@ -61,7 +61,7 @@ def polygon_to_segments(polygon: FloatArray) -> Segments:
     return np.hstack([polygon, np.roll(polygon, -1, axis=0)])
 
 
-@numba.njit(cache=True)
+@njit
 def point_segment_distance(px: float, py: float, x1: float, y1: float, x2: float, y2: float) -> float:
     """Euclidean distance from point (px, py) to the segment (x1, y1)-(x2, y2)."""
     ex = x2 - x1
@@ -76,12 +76,12 @@ def point_segment_distance(px: float, py: float, x1: float, y1: float, x2: float
     return math.sqrt(dx * dx + dy * dy)
 
 
-@numba.njit(cache=True)
+@njit
 def _orientation(ax: float, ay: float, bx: float, by: float, cx: float, cy: float) -> float:
     return (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
 
 
-@numba.njit(cache=True)
+@njit
 def segments_intersect(ax: float, ay: float, bx: float, by: float, cx: float, cy: float, dx: float, dy: float) -> bool:
     """True when the closed segments a-b and c-d share at least one point."""
     d1 = _orientation(cx, cy, dx, dy, ax, ay)
@@ -102,7 +102,7 @@ def segments_intersect(ax: float, ay: float, bx: float, by: float, cx: float, cy
     return False
 
 
-@numba.njit(cache=True)
+@njit
 def segment_segment_distance(
     ax: float, ay: float, bx: float, by: float, cx: float, cy: float, dx: float, dy: float
 ) -> float:
@@ -117,7 +117,7 @@ def segment_segment_distance(
     )
 
 
-@numba.njit(cache=True)
+@njit
 def point_in_polygon(px: float, py: float, polygon: FloatArray) -> bool:
     """Even-odd rule point-in-polygon test (points on the boundary may go either way)."""
     inside = False
@@ -134,7 +134,7 @@ def point_in_polygon(px: float, py: float, polygon: FloatArray) -> bool:
     return inside
 
 
-@numba.njit(cache=True)
+@njit
 def polygon_clearance(polygon: FloatArray, segments: Segments, limit: float = math.inf) -> float:
     """Distance from a closed polygon to the nearest segment; 0 when any segment touches it.
 
@@ -164,7 +164,7 @@ def polygon_clearance(polygon: FloatArray, segments: Segments, limit: float = ma
     return best
 
 
-@numba.njit(cache=True)
+@njit
 def point_clearance(px: float, py: float, segments: Segments) -> float:
     """Distance from a point to the nearest segment (inf when there are none)."""
     best = math.inf
@@ -175,7 +175,7 @@ def point_clearance(px: float, py: float, segments: Segments) -> float:
     return best
 
 
-@numba.njit(cache=True)
+@njit
 def footprint_clearance(
     x: float, y: float, theta: float, outline: FloatArray, segments: Segments, limit: float
 ) -> float:

@@ -14,9 +14,9 @@ import heapq
 import math
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 
+from pico_gym.jit import njit
 from pico_gym.types import FloatArray, Segments
 from pico_gym.world.geometry import point_segment_distance
 
@@ -69,7 +69,7 @@ class Grid:
         return np.meshgrid(xs, ys)
 
 
-@numba.njit(cache=True)
+@njit
 def _clearance(x0: float, y0: float, res: float, rows: int, cols: int, segments: Segments, cap: float) -> FloatArray:
     out = np.full((rows, cols), cap)
     for k in range(segments.shape[0]):
@@ -96,7 +96,7 @@ def clearance_grid(grid: Grid, segments: Segments, cap: float = 1.0) -> FloatArr
     )
 
 
-@numba.njit(cache=True)
+@njit
 def _dijkstra(
     cost: FloatArray, knight_ok: np.ndarray, seeds_r: np.ndarray, seeds_c: np.ndarray, seeds_v: FloatArray, res: float
 ) -> FloatArray:
@@ -151,7 +151,7 @@ class GeodesicField:
         return float(_lookup(self.distance, fx, fy))
 
 
-@numba.njit(cache=True)
+@njit
 def _lookup(dist: FloatArray, fx: float, fy: float) -> float:
     rows, cols = dist.shape
     c0 = int(math.floor(fx))

@@ -1,0 +1,49 @@
+"""numba's `njit` with its on-disk cache in the user's cache directory, never in the package.
+
+`numba.njit(cache=True)` writes its cache files into a `__pycache__` folder next to the source,
+that is, inside the installed package. `pip uninstall` does not know those files and leaves the
+folders behind, and Python then takes the leftover `pico_gym/...` folders for namespace packages
+that hide a later (e.g. editable) install. `njit` here caches the same kernels in numba's
+user-wide cache directory instead (`NUMBA_CACHE_DIR` if the user set one, else the platform's
+user cache, e.g. ~/.cache/numba), keyed by the source file's path and contents as numba's own
+cache is. Where that cannot be set up, the kernels compile in memory only.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any, TypeVar
+
+import numba
+
+F = TypeVar("F", bound=Callable[..., Any])
+
+try:  # numba's cache classes are internal; without them the kernels compile in memory only.
+    from numba.core.caching import (
+        CompileResultCacheImpl,
+        FunctionCache,
+        UserProvidedCacheLocator,
+        UserWideCacheLocator,
+    )
+
+    class _UserCacheImpl(CompileResultCacheImpl):  # type: ignore[misc]
+        _locator_classes = [UserProvidedCacheLocator, UserWideCacheLocator]
+
+    class _UserCache(FunctionCache):  # type: ignore[misc]
+        """numba's function cache, located outside the source tree."""
+
+        _impl_class = _UserCacheImpl
+
+except ImportError:  # pragma: no cover - depends on the numba version
+    _UserCache = None  # type: ignore[assignment,misc]
+
+
+def njit(function: F) -> F:
+    """Compile `function` with `numba.njit`, caching the machine code in the user cache directory."""
+    dispatcher = numba.njit(cache=False)(function)
+    if _UserCache is not None:
+        try:
+            dispatcher._cache = _UserCache(function)
+        except RuntimeError:  # no writable user cache directory: compile in memory only
+            pass
+    return dispatcher  # type: ignore[return-value]
