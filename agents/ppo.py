@@ -1,10 +1,16 @@
-"""PPO agents: a stable-baselines3 policy acting on an env's raw observations.
+"""PPO agents: a trained policy acting on an env's raw observations, with numpy (no torch).
 
-A policy is two files side by side: `NAME.zip` (stable-baselines3's PPO save) and `NAME.json`
-(what the policy sees: the `LearningConfig` of `pico_gym.wrappers`, and the env it was trained
-on). The agent encodes raw observations with the same `LearningEncoder` the training wrapper uses,
-so it acts exactly as in training; actions come back in [-1, 1] and are rescaled to the robot's
-limits. Needs the `train` extra (stable-baselines3, torch).
+A policy is files side by side: `NAME.npz` (the actor's weights as plain arrays, see
+`pico_gym.agents.mlp`; what acting needs), `NAME.json` (what the policy sees: the `LearningConfig`
+of `pico_gym.wrappers`, the env it was trained on, its evaluation) and, from training, `NAME.zip`
+(stable-baselines3's PPO save, needed only to train on). The agent encodes raw observations with
+the same `LearningEncoder` the training wrapper uses, so it acts exactly as in training; actions
+come back in [-1, 1] and are rescaled to the robot's limits.
+
+Acting from an `.npz` needs numpy only. Given a `.zip` without its `.npz`, the agent loads it with
+stable-baselines3 (the `train` extra, torch) and converts the actor. SB3 zips and pickles can run
+arbitrary code when loaded: load only files from a source you trust. The `.npz` loads with
+pickling off.
 """
 
 from __future__ import annotations
@@ -14,20 +20,25 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from gymnasium.error import DependencyNotInstalled
+from pico_gym.agents.base import Agent, RobotSpec, episode_rng
+from pico_gym.agents.mlp import MlpActor, export_actor
 
-from agents.base import Agent, RobotSpec, episode_rng
 from pico_gym.wrappers import LearningConfig, LearningEncoder, rescale_action
 
-# The shipped policy (see agents/models/MODEL_CARD.md).
-SHIPPED_MODEL = Path(__file__).parent / "models" / "ppo_escape.zip"
+# The shipped policy (see agents/models/MODEL_CARD.md): its actor arrays, and SB3's training zip.
+SHIPPED_POLICY = Path(__file__).parent / "models" / "ppo_escape.npz"
+SHIPPED_MODEL = SHIPPED_POLICY.with_suffix(".zip")
+TRAIN_EXTRA_HINT = "pip install 'pico-gym[train]' (CPU-only torch: see the README's 'Installing torch')"
 
 
 def _sb3() -> Any:
     try:
         import stable_baselines3
     except ImportError as exc:  # pragma: no cover - depends on the install
-        raise ImportError(
-            "the PPO agent needs stable-baselines3 and torch: pip install torch==2.13.0 'pico-gym[train]'"
+        raise DependencyNotInstalled(
+            f"loading a stable-baselines3 .zip policy needs stable-baselines3 and torch: {TRAIN_EXTRA_HINT}; "
+            "a policy's .npz file runs without them"
         ) from exc
     return stable_baselines3
 
@@ -47,6 +58,7 @@ def save_policy(model: Any, path: str | Path, learning: LearningConfig, **metada
     if norm is not None:
         meta["obs_norm"] = {k: v.tolist() if isinstance(v, np.ndarray) else v for k, v in norm.items()}
     policy_metadata_path(path).write_text(json.dumps(meta, indent=1, default=str) + "\n")
+    export_actor(model, norm).save(path.with_suffix(".npz"))
     return path
 
 
@@ -59,11 +71,7 @@ def observation_normalizer(model: Any) -> dict[str, Any] | None:
     return {"mean": rms.mean.copy(), "var": rms.var.copy(), "clip": float(venv.clip_obs), "epsilon": venv.epsilon}
 
 
-def load_policy(path: str | Path) -> tuple[Any, LearningConfig, dict[str, Any]]:
-    """Load a policy saved by `save_policy`: (model, learning config, metadata)."""
-    path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"no PPO policy at {path}")
+def _read_metadata(path: Path) -> tuple[LearningConfig, dict[str, Any]]:
     meta_path = policy_metadata_path(path)
     if not meta_path.is_file():
         raise FileNotFoundError(f"{path} has no metadata file {meta_path.name} next to it (see agents/ppo.py)")
@@ -72,19 +80,57 @@ def load_policy(path: str | Path) -> tuple[Any, LearningConfig, dict[str, Any]]:
         learning = LearningConfig(**meta["learning"])
     except (ValueError, KeyError, TypeError) as exc:
         raise ValueError(f"{meta_path}: bad policy metadata ({exc})") from exc
+    return learning, meta
+
+
+def load_policy(path: str | Path) -> tuple[Any, LearningConfig, dict[str, Any]]:
+    """Load a stable-baselines3 policy saved by `save_policy`: (model, learning config, metadata).
+
+    Needs stable-baselines3 and torch. The zip can run code when loaded: trusted files only.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"no PPO policy at {path}")
+    learning, meta = _read_metadata(path)
+    sb3 = _sb3()
     import torch
 
     torch.set_num_threads(1)  # a small MLP, one observation at a time: one thread is fastest
-    model = _sb3().PPO.load(path, device="cpu")
+    model = sb3.PPO.load(path, device="cpu")
     return model, learning, meta
 
 
+def load_actor(path: str | Path) -> tuple[MlpActor, LearningConfig, dict[str, Any]]:
+    """Load a policy for acting: (actor, learning config, metadata).
+
+    `path` is a policy's `.npz`, or its `.zip` (then the `.npz` beside it if there is one, else the
+    zip through stable-baselines3, which needs torch).
+    """
+    path = Path(path)
+    arrays = path.with_suffix(".npz")
+    if arrays.is_file():
+        learning, meta = _read_metadata(arrays)
+        return MlpActor.load(arrays), learning, meta
+    if path.suffix == ".npz" or not path.is_file():
+        raise FileNotFoundError(f"no PPO policy at {path}")
+    model, learning, meta = load_policy(path)
+    return export_actor(model, meta.get("obs_norm")), learning, meta
+
+
 class PpoAgent(Agent):
-    """Acts with a trained PPO policy.
+    """Acts with a trained PPO policy, evaluated with numpy.
 
     `deterministic=True` (default) takes the policy's mean action; `False` samples from the
     policy's Gaussian with the agent's own generator, re-seeded at each reset from `seed` and the
     episode's first scan (so an episode plays the same wherever it runs).
+
+    Args:
+        spec: the robot's public spec.
+        path: a policy file (`.npz`, or an SB3 `.zip`); default: the shipped policy.
+        model: an SB3 model in memory instead (training's evaluations), with its `learning` config.
+        learning: the observation encoding `model` was trained with.
+        deterministic: mean action, or a sample.
+        seed: seeds the sampling generator.
     """
 
     name = "ppo"
@@ -100,26 +146,19 @@ class PpoAgent(Agent):
     ) -> None:
         super().__init__(spec)
         if model is None:
-            model, learning, meta = load_policy(path or SHIPPED_MODEL)
-            norm = meta.get("obs_norm")
+            actor, learning, _ = load_actor(path or SHIPPED_POLICY)
         elif learning is None:
             raise ValueError("PpoAgent(model=...) needs the LearningConfig it was trained with")
         else:
-            norm = observation_normalizer(model)
-        # VecNormalize's transform, if the policy was trained under it: clip((x - mean) / std).
-        self._norm = None
-        if norm is not None:
-            std = np.sqrt(np.asarray(norm["var"], np.float64) + float(norm["epsilon"]))
-            self._norm = (np.asarray(norm["mean"], np.float64), std, float(norm["clip"]))
-        self.model = model
+            actor = export_actor(model, observation_normalizer(model))
+        self.actor = actor
         self.deterministic = deterministic
         self.seed = seed
         self.rng = np.random.default_rng(seed)
         self.encoder = LearningEncoder(spec.lrf, spec.robot, spec.dt_s, learning)
-        expected = model.observation_space.shape
-        if expected != self.encoder.space.shape:
+        if actor.obs_size != self.encoder.space.shape[0]:
             raise ValueError(
-                f"the policy expects observations of shape {expected}, but {learning} on this robot's "
+                f"the policy expects observations of length {actor.obs_size}, but {learning} on this robot's "
                 f"LRF ({spec.lrf.n_beams} beams) gives {self.encoder.space.shape}"
             )
         self._low, self._high = spec.robot.action_low, spec.robot.action_high
@@ -134,17 +173,5 @@ class PpoAgent(Agent):
             x, self._first = self._first, None
         else:
             x = self.encoder.encode(obs)
-        if self._norm is not None:
-            mean, std, clip = self._norm
-            x = np.clip((x - mean) / std, -clip, clip).astype(np.float32)
-        if self.deterministic:
-            unit, _ = self.model.predict(x, deterministic=True)
-        else:
-            import torch
-
-            with torch.no_grad():
-                obs_tensor, _ = self.model.policy.obs_to_tensor(x)
-                dist = self.model.policy.get_distribution(obs_tensor).distribution
-                mean, std = dist.mean.numpy()[0], dist.stddev.numpy()[0]
-            unit = mean + std * self.rng.standard_normal(mean.shape)
+        unit = self.actor.act(x, None if self.deterministic else self.rng)
         return rescale_action(unit, self._low, self._high).astype(np.float32)

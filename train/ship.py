@@ -1,6 +1,6 @@
 """Ship a trained policy as the PPO agent's default, with a model card of measured numbers.
 
-    python -m train.ship runs/ppo_escape_seed0/best.zip [--episodes 500] [--seed 1000]
+    python -m pico_gym.train.ship runs/ppo_escape_seed0/best.zip [--episodes 500] [--seed 1000]
 
 copies the policy to agents/models/ppo_escape.{zip,json}, evaluates it with `pico-gym bench`'s
 machinery on generated rooms it never trained on (and, for the realism row, with LRF noise doubled
@@ -20,9 +20,9 @@ from pathlib import Path
 from typing import Any
 
 import yaml
-
-from agents.evaluation import Summary, run_episodes, summarize
-from agents.ppo import SHIPPED_MODEL, policy_metadata_path
+from pico_gym.agents.evaluation import Summary, run_episodes, summarize
+from pico_gym.agents.mlp import export_actor
+from pico_gym.agents.ppo import SHIPPED_MODEL, SHIPPED_POLICY, load_policy, policy_metadata_path
 
 CHECK_EPISODES = 20
 REALISM = {"noise_m": 0.02, "slip_std": 0.05}
@@ -100,7 +100,7 @@ def ship(
     if meta_path.exists():
         meta = json.loads(meta_path.read_text())
     else:  # a checkpoint: its metadata comes from the run's resolved config
-        from train.ppo import TrainConfig
+        from pico_gym.train.ppo import TrainConfig
 
         m = re.fullmatch(r"ppo_(\d+)_steps\.zip", source.name)
         if m is None:
@@ -121,13 +121,17 @@ def ship(
     SHIPPED_MODEL.parent.mkdir(parents=True, exist_ok=True)
     shutil.copyfile(source, SHIPPED_MODEL)
     policy_metadata_path(SHIPPED_MODEL).write_text(json.dumps(meta, indent=1, default=str) + "\n")
+    # The actor as plain arrays: what the PPO agent runs on (no torch needed to act).
+    SHIPPED_POLICY.unlink(missing_ok=True)
+    model, _, _ = load_policy(SHIPPED_MODEL)
+    export_actor(model, meta.get("obs_norm")).save(SHIPPED_POLICY)
 
     seeds = range(seed, seed + episodes)
-    summary, records = _evaluate(SHIPPED_MODEL.with_suffix(".zip"), seeds, meta.get("env_kwargs") or {})
+    summary, records = _evaluate(SHIPPED_POLICY, seeds, meta.get("env_kwargs") or {})
     rows = [_row("generated rooms", summary)]
     evaluation = {"generated": {"seeds": [seeds[0], seeds[-1]], **summary.to_dict()}}
     if realism:
-        hard, _ = _evaluate(SHIPPED_MODEL, seeds, {**(meta.get("env_kwargs") or {}), **REALISM})
+        hard, _ = _evaluate(SHIPPED_POLICY, seeds, {**(meta.get("env_kwargs") or {}), **REALISM})
         rows.append(_row("noise x2 + slip", hard))
         evaluation["realism"] = {"seeds": [seeds[0], seeds[-1]], "env_kwargs": REALISM, **hard.to_dict()}
     check = records[:CHECK_EPISODES]
@@ -158,7 +162,7 @@ def _write_card(meta: dict[str, Any], config: dict[str, Any], rows: list[str], o
     lines = [
         "# Model card: `ppo_escape` (the PPO agent's shipped policy)",
         "",
-        "Written by `python -m train.ship` from measured runs; do not edit the numbers by hand.",
+        "Written by `python -m pico_gym.train.ship` from measured runs; do not edit the numbers by hand.",
         "",
         "## What it is",
         f"- PPO (stable-baselines3 {run.get('versions', {}).get('stable-baselines3', '?')}), MLP policy, "
@@ -209,7 +213,7 @@ def _write_card(meta: dict[str, Any], config: dict[str, Any], rows: list[str], o
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="python -m train.ship", description=__doc__.split("\n\n")[0])
+    p = argparse.ArgumentParser(prog="python -m pico_gym.train.ship", description=__doc__.split("\n\n")[0])
     p.add_argument("policy", type=Path, help="a policy zip of a run directory (e.g. runs/x/best.zip)")
     p.add_argument("--episodes", type=int, default=500)
     p.add_argument("--seed", type=int, default=1000)
