@@ -14,6 +14,7 @@ from __future__ import annotations
 from typing import Any
 
 import gymnasium as gym
+
 from pico_gym.agents.base import Agent, RobotSpec
 
 AGENTS = ("classic", "ppo", "wall-follow", "random")

@@ -6,9 +6,9 @@ import math
 from typing import Any
 
 import numpy as np
+
 from pico_gym.agents.base import Agent, RobotSpec, episode_rng
 from pico_gym.agents.classic.potential_field import MotionConfig, keep_in_view, safety_filter
-
 from pico_gym.overlay import Overlay
 
 

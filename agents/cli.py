@@ -8,12 +8,58 @@ from __future__ import annotations
 
 import argparse
 import ast
+import dataclasses
+import difflib
 import json
+import os
 import sys
 from pathlib import Path
 from typing import Any
 
 from pico_gym.agents import AGENTS
+from pico_gym.extras import require
+
+
+def _set_option(key: str, text: str) -> Any:
+    """The value of `--set KEY=TEXT`, checked against the env config's field of that name."""
+    fields = _config_fields()
+    if key not in fields:
+        close = difflib.get_close_matches(key, fields, n=3)
+        hint = f" (did you mean {', '.join(close)}?)" if close else ""
+        raise ValueError(f"--set {key}: no such env option{hint}; options: {', '.join(sorted(fields))}")
+    try:
+        value = ast.literal_eval(text)
+    except (ValueError, SyntaxError):
+        value = text
+    current = fields[key]
+    if isinstance(current, bool):
+        ok = isinstance(value, bool)
+    elif isinstance(current, (int, float)):
+        ok = isinstance(value, (int, float)) and not isinstance(value, bool)
+    elif isinstance(current, str):
+        ok = isinstance(value, str)
+    else:
+        ok = True  # tuples, nested configs (as dicts), None-able fields: the config checks them
+    if not ok:
+        raise ValueError(f"--set {key}={text}: expected a {type(current).__name__} like {current!r}")
+    return value
+
+
+def _config_fields() -> dict[str, Any]:
+    """Every field name of the env config (at any depth) -> its default value."""
+    from pico_gym.envs.base import EnvConfig
+
+    out: dict[str, Any] = {}
+
+    def walk(config: Any) -> None:
+        for f in dataclasses.fields(config):
+            value = getattr(config, f.name)
+            out.setdefault(f.name, value)
+            if dataclasses.is_dataclass(value):
+                walk(value)
+
+    walk(EnvConfig())
+    return out
 
 
 def _env_options(args: argparse.Namespace) -> dict[str, Any]:
@@ -26,26 +72,38 @@ def _env_options(args: argparse.Namespace) -> dict[str, Any]:
         key, _, value = item.partition("=")
         if not key or not value:
             raise ValueError(f"--set takes KEY=VALUE, got {item!r}")
-        try:
-            options[key] = ast.literal_eval(value)
-        except (ValueError, SyntaxError):
-            options[key] = value
+        options[key] = _set_option(key, value)
     return options
 
 
+def _has_display() -> bool:
+    """Whether a window can be opened (an X or Wayland display, or not Linux)."""
+    if os.environ.get("SDL_VIDEODRIVER") in ("dummy", "offscreen"):
+        return False
+    if sys.platform.startswith("linux"):
+        return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+    return True
+
+
 def _common(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--agent", choices=AGENTS, default="classic")
+    p.add_argument("--agent", choices=AGENTS, default="classic", help="the agent")
     where = p.add_mutually_exclusive_group()
     where.add_argument("--map", help="a shipped map (default: generated rooms)")
     where.add_argument("--map-path", help="a map file")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=int, default=0, help="the (first) episode's seed")
     p.add_argument(
         "--set",
         action="append",
         metavar="KEY=VALUE",
         help="an env option, e.g. --set noise_m=0.02 --set slip_std=0.05 (repeatable)",
     )
-    p.add_argument("--policy", help="the PPO agent's policy zip (default: the shipped one)")
+    p.add_argument("--policy", help=POLICY_HELP)
+
+
+POLICY_HELP = (
+    "the PPO agent's policy: a .npz (numpy, no torch) or an SB3 .zip (needs torch); default: the shipped "
+    "one. An SB3 zip runs code when loaded: use only files from a source you trust"
+)
 
 
 def _agent_kwargs(args: argparse.Namespace, agent: str) -> dict[str, Any]:
@@ -54,32 +112,43 @@ def _agent_kwargs(args: argparse.Namespace, agent: str) -> dict[str, Any]:
 
 def cmd_run(args: argparse.Namespace) -> int:
     import gymnasium as gym
-    from pico_gym.agents import make_agent
-    from pico_gym.agents.evaluation import run_episode
 
     import pico_gym  # noqa: F401
+    from pico_gym.agents import make_agent
+    from pico_gym.agents.evaluation import run_episode
     from pico_gym.render import save_gif
 
-    mode = "human" if args.render == "human" else ("rgb_array" if args.gif or args.video else None)
+    if args.render == "human" and not _has_display():
+        raise ValueError("--render human needs a display (none found: DISPLAY is not set); use --gif or --video")
+    if args.video:
+        require("moviepy", "video", "--video")
+    want_frames = bool(args.gif or args.video or args.png)
+    mode = "human" if args.render == "human" else ("rgb_array" if want_frames else None)
     env = gym.make("PicoEscape-v0", render_mode=mode, **_env_options(args))
     agent = make_agent(args.agent, env, **_agent_kwargs(args, args.agent))
     env.unwrapped.set_overlay(agent.overlay)
-    frames = []
-    record_frame = (lambda: frames.append(env.render())) if mode == "rgb_array" else None
-    record = run_episode(env, agent, args.seed, args.agent, on_step=record_frame)
+    frames: list[Any] = []
+
+    def record_frame() -> None:
+        if len(frames) < args.max_frames:
+            frames.append(env.render())
+
+    record = run_episode(env, agent, args.seed, args.agent, on_step=record_frame if args.gif or args.video else None)
     if args.gif:
         save_gif(frames, args.gif, env.metadata["render_fps"])
         print(f"wrote {args.gif} ({len(frames)} frames)")
     if args.video:
-        try:
-            from moviepy import ImageSequenceClip
-        except ImportError:
-            print("pico-gym: --video needs moviepy (pip install moviepy)", file=sys.stderr)
-            return 2
+        from moviepy import ImageSequenceClip
+
         ImageSequenceClip(frames, fps=env.metadata["render_fps"]).write_videofile(args.video, logger=None)
         print(f"wrote {args.video}")
+    if args.png:
+        from PIL import Image
+
+        Image.fromarray(env.render()).save(args.png)
+        print(f"wrote {args.png}")
     env.close()
-    outcome = "escaped" if record.success else f"did not escape ({record.termination_reason})"
+    outcome = f"{record.termination_reason}" + (" (success)" if record.success else " (no success)")
     print(f"agent: {args.agent}   map: {record.map}   seed: {record.seed}")
     print(f"outcome: {outcome}")
     print(
@@ -91,10 +160,13 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
-    from pico_gym.agents.evaluation import format_summary, run_episodes, summarize
     from tqdm import tqdm
 
+    from pico_gym.agents.evaluation import format_summary, run_episodes, summarize
+
     options = _env_options(args)
+    if args.json and not Path(args.json).resolve().parent.is_dir():
+        raise ValueError(f"--json {args.json}: folder {Path(args.json).resolve().parent} does not exist")
     seeds = range(args.seed, args.seed + args.episodes)
     with tqdm(total=args.episodes, desc=f"{args.agent}", unit="ep", file=sys.stderr, disable=args.quiet) as bar:
         records = run_episodes(
@@ -126,14 +198,16 @@ def add_run(sub: argparse._SubParsersAction) -> None:
     _common(p)
     p.add_argument("--render", choices=("human",), help="show the episode in a window")
     p.add_argument("--gif", help="write the episode (with the agent's overlay) as a GIF")
-    p.add_argument("--video", help="write the episode as an MP4 (needs moviepy)")
+    p.add_argument("--video", help="write the episode as an MP4 (the video extra: moviepy)")
+    p.add_argument("--png", help="write the episode's last frame as a PNG")
+    p.add_argument("--max-frames", type=int, default=3000, help="cap on GIF/video frames")
     p.set_defaults(func=cmd_run)
 
 
 def add_bench(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("bench", help="run seeded episodes with an agent and print the figures")
     _common(p)
-    p.add_argument("--episodes", type=int, default=100)
+    p.add_argument("--episodes", type=int, default=100, help="episodes, on seeds --seed, --seed + 1, ...")
     p.add_argument("--workers", type=int, default=None, help="processes (default: one per core)")
     p.add_argument("--json", help="write per-episode records and the summary as JSON")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -141,8 +215,9 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
-    from pico_gym.agents.compare import Episodes, compare, markdown_table
     from tqdm import tqdm
+
+    from pico_gym.agents.compare import Episodes, compare, markdown_table
 
     agents = [a.strip() for a in args.agents.split(",") if a.strip()]
     unknown = [a for a in agents if a not in AGENTS]
@@ -170,7 +245,7 @@ def add_compare(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--suite", choices=("generated", "maps", "all"), default="generated")
     p.add_argument("--out", default="compare", help="output directory")
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="an env option (repeatable)")
-    p.add_argument("--policy", help="the PPO agent's policy zip (default: the shipped one)")
+    p.add_argument("--policy", help=POLICY_HELP)
     p.add_argument("--trajectories", type=int, default=3, help="rooms in trajectories.png (0: no figure)")
     p.add_argument("--workers", type=int, default=None, help="processes (default: one per core)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")

@@ -25,10 +25,11 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
-from pico_gym.agents import make_agent
-from pico_gym.agents.evaluation import EpisodeRecord, Summary, run_episode, run_episodes, summarize
 
 import pico_gym  # noqa: F401
+from pico_gym.agents import make_agent
+from pico_gym.agents.evaluation import EpisodeRecord, Summary, run_episode, run_episodes, summarize
+from pico_gym.extras import require
 from pico_gym.world.catalog import shipped_maps
 
 SUITES = ("generated", "maps", "all")
@@ -263,8 +264,18 @@ def compare(
     n_rooms: int = 3,
     progress: Callable[[int], None] | None = None,
 ) -> dict[str, Summary]:
-    """Run, write results.{md,json,csv} and the plots into `out`; returns the summaries."""
+    """Run, write results.{md,json,csv} and the plots into `out`; returns the summaries.
+
+    What could fail after the episodes (matplotlib missing, an output folder that cannot be made,
+    an agent that cannot be built) is checked before the first one.
+    """
+    require("matplotlib", "plots", "pico-gym compare's plots")
     out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    probe = gym.make("PicoEscape-v0", **episodes.env_kwargs(episodes.groups[0][0]))
+    for name in agents:
+        make_agent(name, probe, **(agent_kwargs or {}).get(name, {}))
+    probe.close()
     results = run_comparison(agents, episodes, agent_kwargs, workers, progress)
     settings = {
         "agents": list(agents),

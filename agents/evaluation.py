@@ -21,9 +21,9 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
-from pico_gym.agents import make_agent
 
 import pico_gym  # noqa: F401  (registers the env ids)
+from pico_gym.agents import make_agent
 
 # The competition's speed limit: the oracle drives its path at this speed [m/s].
 ORACLE_SPEED_MPS = 0.5

@@ -21,9 +21,9 @@ from typing import Any
 
 import numpy as np
 from gymnasium.error import DependencyNotInstalled
+
 from pico_gym.agents.base import Agent, RobotSpec, episode_rng
 from pico_gym.agents.mlp import MlpActor, export_actor
-
 from pico_gym.wrappers import LearningConfig, LearningEncoder, rescale_action
 
 # The shipped policy (see agents/models/MODEL_CARD.md): its actor arrays, and SB3's training zip.

@@ -2,8 +2,9 @@
 
 Sub-commands:
     maps        list the shipped maps, or draw one to a PNG
-    rollout     play one episode of PicoEscape-v0, write a GIF/PNG of it and print what happened
     bench-env   measure env steps/s, LRF scans/s and vector-env throughput on this machine
+and, registered by pico_gym.agents and pico_gym.train through the `pico_gym.commands` entry points:
+    run, bench, compare, train
 """
 
 from __future__ import annotations
@@ -19,21 +20,9 @@ from importlib.metadata import entry_points
 from pathlib import Path
 
 import numpy as np
+from gymnasium.error import DependencyNotInstalled
 
 from pico_gym.world.map import MapError
-
-
-def _make_env(args: argparse.Namespace, **kwargs: object):
-    import gymnasium as gym
-
-    import pico_gym  # noqa: F401  (registers the ids)
-
-    if getattr(args, "map", None):
-        kwargs["map"] = args.map
-    if getattr(args, "map_path", None):
-        kwargs["map_path"] = args.map_path
-    return gym.make("PicoEscape-v0", **kwargs)
-
 
 # --- maps -----------------------------------------------------------------------------------
 
@@ -58,56 +47,6 @@ def cmd_maps(args: argparse.Namespace) -> int:
 
     render_map_png(world, out)
     print(f"wrote {out}")
-    return 0
-
-
-# --- rollout --------------------------------------------------------------------------------
-
-
-def cmd_rollout(args: argparse.Namespace) -> int:
-    from PIL import Image
-
-    from pico_gym.demo import follow_the_gap
-    from pico_gym.render import save_gif
-
-    want_frames = args.gif is not None or args.png is not None
-    env = _make_env(args, render_mode="rgb_array" if want_frames else None)
-    obs, info = env.reset(seed=args.seed)
-    angles = env.unwrapped.lrf.beam_angles
-    if args.policy == "random":
-        env.action_space.seed(args.seed)
-        policy: Callable[[dict[str, np.ndarray]], np.ndarray] = lambda o: env.action_space.sample()  # noqa: E731
-    else:
-        policy = lambda o: follow_the_gap(o, angles)  # noqa: E731
-    frames = [env.render()] if want_frames else []
-    reward_sum = 0.0
-    terminated = truncated = False
-    while not (terminated or truncated):
-        obs, reward, terminated, truncated, info = env.step(policy(obs))
-        reward_sum += reward
-        if args.gif is not None and len(frames) < args.max_frames:
-            frames.append(env.render())
-    if want_frames:
-        last = env.render()
-    env.close()
-    if args.gif is not None:
-        save_gif(frames + [last], args.gif, env.metadata["render_fps"])
-        print(f"wrote {args.gif} ({len(frames) + 1} frames)")
-    if args.png is not None:
-        Image.fromarray(last).save(args.png)
-        print(f"wrote {args.png}")
-    world = env.unwrapped.episode.map
-    print(f"map: {world.name}   seed: {args.seed}   policy: {args.policy}")
-    print(f"outcome: {info['termination_reason']}   success: {info['is_success']}")
-    print(
-        f"time: {info['sim_time']:.1f} s   bumps: {info['bumps']}   path: {info['path_length']:.2f} m   "
-        f"shortest path: {info['shortest_path_length']:.2f} m   min clearance: {info['min_clearance']:.3f} m"
-    )
-    err = info["odom_error"]
-    print(
-        f"return: {reward_sum:.2f}   odometry error at the end: "
-        f"{np.hypot(err[0], err[1]):.3f} m, {np.degrees(err[2]):.2f} deg"
-    )
     return 0
 
 
@@ -260,30 +199,40 @@ def cmd_bench_env(args: argparse.Namespace) -> int:
 # --- entry point ----------------------------------------------------------------------------
 
 
+class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
+    """Shows every option's default (options without one, or with None, show none)."""
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        if action.default in (None, False) or action.default is argparse.SUPPRESS:
+            return action.help or ""
+        return super()._get_help_string(action) or ""
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="pico-gym", description="PICO challenges as Gymnasium environments.")
+    import pico_gym
+
+    parser = argparse.ArgumentParser(
+        prog="pico-gym", description="PICO challenges as Gymnasium environments.", formatter_class=HelpFormatter
+    )
+    parser.add_argument("--version", action="version", version=f"pico-gym {pico_gym.__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
+    add_parser = sub.add_parser
+
+    def add_parser_with_defaults(*args: object, **kwargs: object) -> argparse.ArgumentParser:
+        kwargs.setdefault("formatter_class", HelpFormatter)
+        return add_parser(*args, **kwargs)
+
+    sub.add_parser = add_parser_with_defaults  # type: ignore[method-assign]  (every command shows defaults)
 
     p = sub.add_parser("maps", help="list the shipped maps, or draw one to a PNG")
     p.add_argument("name", nargs="?", help="a map to draw")
     p.add_argument("--png", help="output file (default: NAME.png)")
     p.set_defaults(func=cmd_maps)
 
-    p = sub.add_parser("rollout", help="play one episode, write a picture or GIF and print what happened")
-    where = p.add_mutually_exclusive_group()
-    where.add_argument("--map", help="a shipped map's name (default: a generated room)")
-    where.add_argument("--map-path", help="a map file (JSON or heightmap image)")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--policy", choices=("gap", "random"), default="gap", help="follow-the-gap demo or random actions")
-    p.add_argument("--gif", help="write the episode as a GIF")
-    p.add_argument("--png", help="write the last frame as a PNG")
-    p.add_argument("--max-frames", type=int, default=600, help="cap on GIF frames")
-    p.set_defaults(func=cmd_rollout)
-
     p = sub.add_parser("bench-env", help="measure env and LRF throughput on this machine")
     p.add_argument("--steps", type=int, default=20000, help="env steps per run")
     p.add_argument("--repeats", type=int, default=5, help="runs per figure (the median is printed)")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=int, default=0, help="seed of the envs and the random actions")
     p.set_defaults(func=cmd_bench_env)
 
     # Sub-commands of packages built on pico_gym (agents, training) register themselves here.
@@ -296,8 +245,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)
-    except (MapError, ValueError) as error:
-        print(f"pico-gym: error: {error}", file=sys.stderr)
+    except (MapError, ValueError, FileNotFoundError, DependencyNotInstalled) as error:
+        print(f"pico-gym {args.command}: error: {error}", file=sys.stderr)
         return 2
 
 

@@ -10,13 +10,13 @@ import gymnasium as gym
 import numpy as np
 import pytest
 from helpers import EPISODE_FIELDS, SUMMARY_FIELDS
+
+import pico_gym  # noqa: F401
 from pico_gym.agents import AGENTS, make_agent
 from pico_gym.agents.base import RobotSpec
 from pico_gym.agents.classic.features import extract_features
 from pico_gym.agents.classic.split_merge import preprocess, split_and_merge
 from pico_gym.agents.evaluation import run_episode
-
-import pico_gym  # noqa: F401
 from pico_gym.cli import main
 from pico_gym.overlay import Overlay
 from pico_gym.world.geometry import inverse, transform_points

@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+
 from pico_gym.agents.classic.astar import astar, line_is_free, string_pull
 from pico_gym.agents.classic.potential_field import (
     MotionConfig,

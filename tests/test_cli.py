@@ -1,4 +1,4 @@
-"""The pico-gym command line: maps, rollout and bench-env."""
+"""The pico-gym command line: maps, bench-env, --version, --help defaults and one-line errors."""
 
 from __future__ import annotations
 
@@ -31,15 +31,42 @@ def test_unknown_map_is_a_clear_error(capsys: pytest.CaptureFixture[str]) -> Non
     assert "unknown map 'atlantis'" in capsys.readouterr().err
 
 
-def test_rollout_writes_a_gif_and_reports(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    from PIL import Image
+def test_version_and_defaults_in_help(capsys: pytest.CaptureFixture[str]) -> None:
+    import pico_gym
 
-    gif = tmp_path / "episode.gif"
-    assert main(["rollout", "--map", "escape_2018", "--seed", "1", "--gif", str(gif), "--max-frames", "20"]) == 0
-    out = capsys.readouterr().out
-    assert "outcome:" in out and "bumps:" in out and "shortest path:" in out
-    with Image.open(gif) as image:
-        assert image.n_frames >= 2
+    with pytest.raises(SystemExit):
+        main(["--version"])
+    assert capsys.readouterr().out.strip() == f"pico-gym {pico_gym.__version__}"
+    with pytest.raises(SystemExit):
+        main(["bench", "--help"])
+    assert "(default: 100)" in " ".join(capsys.readouterr().out.split())
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--set", "noise_mm=0.02"], "--set noise_mm: no such env option (did you mean noise_m"),
+        (["--set", "noise_m=abc"], "--set noise_m=abc: expected a float"),
+        (["--set", "collision=3"], "--set collision=3: expected a str"),
+        (["--set", "noise_m"], "--set takes KEY=VALUE"),
+    ],
+)
+def test_bad_set_is_a_one_line_error(args: list[str], message: str, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["bench", "--episodes", "1", "--quiet", *args]) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err and len(err.strip().splitlines()) == 1
+
+
+def test_bench_json_into_a_missing_folder_fails_before_any_episode(tmp_path: Path, capsys) -> None:
+    assert main(["bench", "--episodes", "500", "--quiet", "--json", str(tmp_path / "no" / "out.json")]) == 2
+    assert "does not exist" in capsys.readouterr().err
+
+
+def test_render_human_without_a_display_says_so(monkeypatch, capsys: pytest.CaptureFixture[str]) -> None:
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    assert main(["run", "--agent", "random", "--render", "human"]) == 2
+    assert "needs a display" in capsys.readouterr().err
 
 
 def test_bench_env_prints_all_figures(capsys: pytest.CaptureFixture[str]) -> None:

@@ -5,9 +5,9 @@ import json
 
 import pytest
 from helpers import EPISODE_FIELDS, SUMMARY_FIELDS
+
 from pico_gym.agents.cli import add_compare
 from pico_gym.agents.compare import Episodes, escape_maps
-
 from pico_gym.cli import main
 
 

@@ -9,11 +9,11 @@ import textwrap
 import gymnasium as gym
 import numpy as np
 import pytest
+
+import pico_gym  # noqa: F401
 from pico_gym.agents import make_agent
 from pico_gym.agents.mlp import MlpActor
 from pico_gym.agents.ppo import SHIPPED_MODEL, SHIPPED_POLICY
-
-import pico_gym  # noqa: F401
 
 
 def _recorded_observations(n_episodes: int = 3, steps: int = 80) -> list[np.ndarray]:

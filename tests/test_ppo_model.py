@@ -7,11 +7,10 @@ import pytest
 
 pytest.importorskip("stable_baselines3")
 
+import pico_gym  # noqa: E402,F401
 from pico_gym.agents import make_agent  # noqa: E402
 from pico_gym.agents.evaluation import run_episode  # noqa: E402
 from pico_gym.agents.ppo import SHIPPED_MODEL, policy_metadata_path  # noqa: E402
-
-import pico_gym  # noqa: E402,F401
 
 
 def test_shipped_model_is_small_and_documented():

@@ -6,9 +6,9 @@ import math
 
 import numpy as np
 import pytest
+
 from pico_gym.agents.classic.features import extract_features, find_corners
 from pico_gym.agents.classic.split_merge import preprocess, split_and_merge
-
 from pico_gym.sensors.lrf import LrfConfig, lrf_ranges
 from pico_gym.types import Pose
 

@@ -13,12 +13,11 @@ import yaml
 
 pytest.importorskip("stable_baselines3")
 
+import pico_gym  # noqa: E402,F401
 from pico_gym.agents import make_agent  # noqa: E402
 from pico_gym.agents.evaluation import run_episode  # noqa: E402
 from pico_gym.train.cli import DEFAULT_CONFIG  # noqa: E402
 from pico_gym.train.ppo import TRAIN_SEED_MIN, ConfigError, EpisodeSeeds, latest_checkpoint, load_config, train  # noqa: E402
-
-import pico_gym  # noqa: E402,F401
 
 TINY = """
 PicoEscape-v0:

@@ -46,7 +46,7 @@ def add_train(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("train", help="train a PPO agent (resumes if --out has checkpoints)")
     p.add_argument("--config", default=str(DEFAULT_CONFIG), help="YAML config (rl-zoo3 layout)")
     p.add_argument("--timesteps", type=int, help="total env steps (default: the config's n_timesteps)")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=int, default=0, help="the run's seed (SB3, envs)")
     p.add_argument("--out", help="run directory (default: runs/<config>_seed<S>)")
     p.add_argument("--init-from", help="start from this checkpoint of another run (e.g. to fine-tune)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")

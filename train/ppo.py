@@ -37,11 +37,11 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 import yaml
+
+import pico_gym
 from pico_gym.agents.base import RobotSpec
 from pico_gym.agents.evaluation import run_episode, summarize
 from pico_gym.agents.ppo import PpoAgent, save_policy
-
-import pico_gym
 from pico_gym.wrappers import LearningConfig
 
 TRAIN_SEED_MIN = 1_000_000
@@ -293,7 +293,6 @@ def _callbacks() -> Any:
 def collect_demonstrations(config: TrainConfig, episodes: int, teacher: str = "classic") -> tuple[Any, Any, dict]:
     """(policy inputs, unit actions) of `teacher` on `episodes` training-seed rooms."""
     from pico_gym.agents import make_agent
-
     from pico_gym.wrappers import LearningEncoder, unit_action
 
     env = gym.make(config.env_id, **{**config.pico["env_kwargs"], **config.pico["train_env_kwargs"]})

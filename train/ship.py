@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 import yaml
+
 from pico_gym.agents.evaluation import Summary, run_episodes, summarize
 from pico_gym.agents.mlp import export_actor
 from pico_gym.agents.ppo import SHIPPED_MODEL, SHIPPED_POLICY, load_policy, policy_metadata_path

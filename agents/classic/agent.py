@@ -24,6 +24,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+
 from pico_gym.agents.base import Agent, RobotSpec
 from pico_gym.agents.classic.astar import astar, string_pull
 from pico_gym.agents.classic.features import Features, extract_features
@@ -37,7 +38,6 @@ from pico_gym.agents.classic.potential_field import (
 )
 from pico_gym.agents.classic.split_merge import Lines, Scan, preprocess, split_and_merge
 from pico_gym.agents.classic.world_model import CELL_M, ExitTrack, WorldModel
-
 from pico_gym.overlay import Overlay
 from pico_gym.types import FloatArray, Pose
 from pico_gym.world.geometry import wrap_angle

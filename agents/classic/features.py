@@ -20,8 +20,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from pico_gym.agents.classic.split_merge import Lines, Scan, sections
 
+from pico_gym.agents.classic.split_merge import Lines, Scan, sections
 from pico_gym.types import FloatArray
 
 # Challenge rule: exits are 0.5-1.5 m wide; allow for noise and crooked walls.

@@ -13,8 +13,8 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from pico_gym.agents.classic.features import Exit
 
+from pico_gym.agents.classic.features import Exit
 from pico_gym.jit import njit
 from pico_gym.types import FloatArray, Pose
 from pico_gym.world.geometry import compose, transform_points

@@ -17,6 +17,7 @@ import gymnasium as gym
 import numpy as np
 
 from pico_gym.config import with_overrides
+from pico_gym.extras import require
 from pico_gym.overlay import Overlay
 from pico_gym.physics import Physics, PhysicsConfig
 from pico_gym.robot import RobotConfig, clip_twist
@@ -75,6 +76,8 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
     def __init__(self, task: EscapeTask, config: EnvConfig, render_mode: str | None = None) -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']}, got {render_mode!r}")
+        if render_mode is not None:
+            require("pygame", "render", f"render_mode={render_mode!r}")
         self.config = config
         self.task = task
         self.render_mode = render_mode
