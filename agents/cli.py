@@ -45,9 +45,12 @@ def _set_option(key: str, text: str) -> Any:
     return value
 
 
-def _config_fields() -> dict[str, Any]:
-    """Every field name of the env config (at any depth) -> its default value."""
-    from pico_gym.envs.base import EnvConfig
+def _config_fields(env_id: str = "PicoEscape-v0") -> dict[str, Any]:
+    """Every field name of an env's config (at any depth) -> its default value."""
+    import gymnasium as gym
+
+    import pico_gym  # noqa: F401
+    from pico_gym.envs import env_class
 
     out: dict[str, Any] = {}
 
@@ -58,7 +61,7 @@ def _config_fields() -> dict[str, Any]:
             if dataclasses.is_dataclass(value):
                 walk(value)
 
-    walk(EnvConfig())
+    walk(env_class(gym.spec(env_id)).default_config())
     return out
 
 

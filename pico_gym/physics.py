@@ -6,8 +6,10 @@ bounded force, as in pymunk's top-down "tank" example: the joints pull the robot
 velocity at once in free space, while contacts with walls, being hard constraints, win. Setting
 the body's velocity directly instead would let it tunnel through walls.
 
-A bump is the start of a contact between the robot and anything static: the collision handler only
-counts; what a bump is worth is the task's business. A new Space is built for every episode.
+A bump is the start of a contact between the robot and anything solid: the collision handler only
+counts (by kind: wall, cabinet, door, box, mover); what a bump is worth is the task's business. A
+new Space is built for every episode, from the episode's `Scene`: static segments tagged by kind,
+and each moving object as a kinematic box moved every sub-step by the scene's mover rules.
 
 Free-space fast path: when the caller knows the footprint is farther from everything than any of
 its points can move in the control period (`clearance_m` in `step`), no contact can begin, so the
@@ -26,9 +28,10 @@ import pymunk
 from pico_gym.robot import RobotConfig
 from pico_gym.sensors.odometry import integrate_twist
 from pico_gym.types import Pose, Segments
+from pico_gym.world.scene import KINDS, MOVER, WALL, Scene
 
 _ROBOT = 1
-_WALL = 2
+_KIND_BASE = 2  # collision type of kind k is _KIND_BASE + k
 
 
 @dataclass(frozen=True)
@@ -72,23 +75,46 @@ class Physics:
     """One episode's pymunk world with the robot in it.
 
     Args:
-        segments: (N, 4) solid geometry, map frame.
+        segments: (N, 4) static solid geometry, map frame.
         robot: the robot's shape and limits.
         config: engine settings.
         pose: the robot's start pose.
+        kinds: (N,) kind code of each segment (`pico_gym.world.scene.KINDS`); default all walls.
+        scene: the episode's scene, whose movers become kinematic boxes moved every sub-step.
     """
 
-    def __init__(self, segments: Segments, robot: RobotConfig, config: PhysicsConfig, pose: Pose) -> None:
+    def __init__(
+        self,
+        segments: Segments,
+        robot: RobotConfig,
+        config: PhysicsConfig,
+        pose: Pose,
+        kinds: np.ndarray | None = None,
+        scene: Scene | None = None,
+    ) -> None:
         self.config = config
         self.robot = robot
+        self.scene = scene
         space = pymunk.Space()
         space.iterations = config.iterations
         space.collision_slop = config.collision_slop_m
-        for x1, y1, x2, y2 in segments:
+        codes = np.full(len(segments), WALL, dtype=np.int8) if kinds is None else kinds
+        for (x1, y1, x2, y2), kind in zip(segments, codes, strict=True):
             wall = pymunk.Segment(space.static_body, (x1, y1), (x2, y2), 0.0)
             wall.friction = 0.0
-            wall.collision_type = _WALL
+            wall.collision_type = _KIND_BASE + int(kind)
             space.add(wall)
+        self._mover_bodies: list[pymunk.Body] = []
+        for mover in scene.movers if scene is not None else ():
+            body = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
+            body.position = (mover.x, mover.y)
+            body.angle = mover.yaw
+            rec = mover.record
+            shape = pymunk.Poly.create_box(body, (rec.length, rec.width))
+            shape.friction = 0.0
+            shape.collision_type = _KIND_BASE + MOVER
+            space.add(body, shape)
+            self._mover_bodies.append(body)
 
         parts = [[tuple(v) for v in part] for part in robot.convex_parts]
         skin = config.contact_skin_m
@@ -117,20 +143,31 @@ class Physics:
         gear.max_bias = 0.0
         gear.max_force = config.drive_torque_nm
         space.add(control, pivot, gear)
-        space.on_collision(_ROBOT, _WALL, begin=self._begin, separate=self._separate)
+        for k in range(len(KINDS)):
+            space.on_collision(_ROBOT, _KIND_BASE + k, begin=self._begin, separate=self._separate, data=k)
 
         self.space = space
         self.body = body
         self.control = control
         self.contacts = 0
         self.bumps = 0
+        self.bumps_by_kind = [0] * len(KINDS)
+        self.bump_log: list[str] = []  # the kind of every bump, in order
         self.time_s = 0.0
         self._contact_ended_s = -math.inf
         self._command = (0.0, 0.0, 0.0)
 
+    @classmethod
+    def from_scene(cls, scene: Scene, robot: RobotConfig, config: PhysicsConfig, pose: Pose) -> Physics:
+        """The physics of an episode's scene (static geometry by kind, movers as kinematic boxes)."""
+        return cls(scene.static_solid, robot, config, pose, scene.static_kinds, scene)
+
     def _begin(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data: object) -> None:
         if self.contacts == 0 and self.time_s - self._contact_ended_s >= self.config.bump_debounce_s:
             self.bumps += 1
+            kind = int(data) if isinstance(data, int) else WALL  # type: ignore[call-overload]
+            self.bumps_by_kind[kind] += 1
+            self.bump_log.append(KINDS[kind])
         self.contacts += 1
 
     def _separate(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data: object) -> None:
@@ -174,6 +211,8 @@ class Physics:
             and clearance_m > self.sweep_m(vx, vy, w, duration_s) + 2.0 * self.config.contact_skin_m
         )
         if free:
+            if self._mover_bodies:
+                self._advance_movers_gliding(vx, vy, w, n, h)
             self._glide(vx, vy, w, n * h)
             return
         for _ in range(n):
@@ -182,8 +221,38 @@ class Physics:
             c, s = math.cos(angle), math.sin(angle)
             self.control.velocity = (c * cvx - s * cvy, s * cvx + c * cvy)
             self.control.angular_velocity = cw
+            if self._mover_bodies:
+                self._move_movers(h)
             self.space.step(h)
+            if self._mover_bodies:
+                self._place_movers()
             self.time_s += h
+
+    def _move_movers(self, h: float) -> None:
+        """Advance the scene's movers by one sub-step and give their bodies the matching velocity."""
+        scene = self.scene
+        x, y = self.body.position
+        before = [(m.x, m.y) for m in scene.movers]
+        scene.advance_movers(h, float(x), float(y))
+        for body, mover, (bx, by) in zip(self._mover_bodies, scene.movers, before, strict=True):
+            body.velocity = ((mover.x - bx) / h, (mover.y - by) / h)
+
+    def _place_movers(self) -> None:
+        """Put the kinematic bodies exactly where the scene's movers are (no drift)."""
+        for body, mover in zip(self._mover_bodies, self.scene.movers, strict=True):
+            body.position = (mover.x, mover.y)
+        self.scene.update_movers()
+
+    def _advance_movers_gliding(self, vx: float, vy: float, w: float, n: int, h: float) -> None:
+        """The movers' sub-steps while the robot glides (no contact possible this step)."""
+        x, y = self.body.position
+        start = Pose(float(x), float(y), self.body.angle)
+        for k in range(n):
+            at = integrate_twist(start, vx, vy, w, k * h)
+            self.scene.advance_movers(h, at.x, at.y)
+        for body in self._mover_bodies:
+            body.velocity = (0.0, 0.0)
+        self._place_movers()
 
     def _glide(self, vx: float, vy: float, w: float, duration_s: float) -> None:
         """Move without contacts: exact integration, leaving the body as the sub-steps would."""

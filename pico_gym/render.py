@@ -1,8 +1,11 @@
 """Drawing an env's state with pygame: headless RGB arrays and a live window.
 
-Shows the map (walls, low obstacles, doors, static obstacles), the finish line, the robot's
-footprint and heading, the LRF hit points, the trajectory, bump markers, the time, and an agent's
-`Overlay` (placed through the odometry frame, so the agent's drift shows).
+Shows the map (walls, low obstacles, doors open or closed, static obstacles, cabinets with their
+fronts), the finish line, the episode's boxes and movers (with their pause circles), a task's
+marks (the cabinets' arrival squares, order numbers and done flags), the robot's footprint and
+heading, the LRF hit points, the trajectory, bump markers, the time, and an agent's `Overlay`
+(placed through the odometry frame, so the agent's drift shows). The renderer reads only a
+`SceneSnapshot` value (`PicoEnv.snapshot()`), never the env.
 """
 
 from __future__ import annotations
@@ -17,8 +20,8 @@ from pico_gym.types import FloatArray, Pose
 from pico_gym.world.geometry import transform_points
 
 if TYPE_CHECKING:
-    from pico_gym.envs.base import PicoEnv
     from pico_gym.world.map import Map
+    from pico_gym.world.scene import SceneSnapshot
 
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 
@@ -37,6 +40,21 @@ TRAIL = (40, 90, 220)
 BUMP = (200, 0, 0)
 OVERLAY = (160, 0, 200)
 TEXT = (0, 0, 0)
+CABINET = (70, 70, 160)
+FRONT = (0, 90, 255)
+SQUARE = (0, 150, 255)
+DONE = (0, 170, 70)
+OPEN_DOOR = (220, 190, 140)
+BOX = (110, 80, 50)
+MOVER = (200, 40, 120)
+PAUSE = (240, 170, 210)
+
+
+def _box(x: float, y: float, yaw: float, length: float, width: float) -> FloatArray:
+    c, s = np.cos(yaw), np.sin(yaw)
+    local = np.array([(0.5 * length, -0.5 * width), (0.5 * length, 0.5 * width)])
+    local = np.vstack([local, -local])
+    return np.column_stack([x + c * local[:, 0] - s * local[:, 1], y + s * local[:, 0] + c * local[:, 1]])
 
 
 def _pygame() -> Any:
@@ -65,17 +83,22 @@ class View:
         return [(int(round(a)), int(round(b))) for a, b in zip(u, v, strict=True)]
 
 
-def draw_map(surface: Any, world: Map, view: View) -> None:
-    """Draw a map's static content on a pygame surface."""
+def draw_map(surface: Any, world: Map, view: View, closed_doors: tuple[int, ...] | None = None) -> None:
+    """Draw a map's static content on a pygame surface (doors: closed ones solid, None = all)."""
     pygame = _pygame()
     for segments, colour, width in ((world.low_segments, LOW, 1), (world.wall_segments, WALL, 2)):
         for x1, y1, x2, y2 in segments:
             a, b = view.px(np.array([[x1, y1], [x2, y2]]))
             pygame.draw.line(surface, colour, a, b, width)
-    for door in world.door_segments:
+    for i, door in enumerate(world.door_segments):
+        colour = DOOR if closed_doors is None or i in closed_doors else OPEN_DOOR
         for x1, y1, x2, y2 in door:
             a, b = view.px(np.array([[x1, y1], [x2, y2]]))
-            pygame.draw.line(surface, DOOR, a, b, 2)
+            pygame.draw.line(surface, colour, a, b, 2 if colour is DOOR else 1)
+    for cabinet in world.cabinets:
+        pygame.draw.polygon(surface, CABINET, view.px(world.polygon(cabinet)))
+        i, j = cabinet[0]
+        pygame.draw.line(surface, FRONT, *view.px(world.points[[i, j]]), 3)
     for polygon in world.obstacles:
         pygame.draw.polygon(surface, OBSTACLE, view.px(polygon))
     if world.finish is not None:
@@ -128,40 +151,53 @@ class Renderer:
         self.clock = None
         self._background: Any = None
         self._map: Map | None = None
+        self._closed: tuple[int, ...] | None = None
 
-    def _prepare(self, world: Map) -> View:
-        if self._map is not world:
+    def _prepare(self, world: Map, closed_doors: tuple[int, ...]) -> View:
+        if self._map is not world or self._closed != closed_doors:
             pygame = _pygame()
-            self._map = world
+            self._map, self._closed = world, closed_doors
             self.view = View(world.bounds)
             self._background = pygame.Surface((CANVAS_PX, CANVAS_PX))
             self._background.fill(WHITE)
-            draw_map(self._background, world, self.view)
+            draw_map(self._background, world, self.view, closed_doors)
             _scale_bar(self._background, self.view)
         return self.view
 
-    def draw(self, env: PicoEnv, overlay: Overlay | None) -> np.ndarray | None:
-        """Draw `env`'s current state (and an agent overlay); returns RGB for rgb_array mode."""
+    def draw(self, state: SceneSnapshot, overlay: Overlay | None) -> np.ndarray | None:
+        """Draw a state snapshot (and an agent overlay); returns RGB for rgb_array mode."""
         pygame = _pygame()
-        view = self._prepare(env.episode.map)
+        view = self._prepare(state.map, state.closed_doors)
         surface = self.surface
         surface.blit(self._background, (0, 0))
-        pose = env.pose
-        if len(env.trajectory) > 1:
-            pygame.draw.lines(surface, TRAIL, False, view.px(np.array([p[:2] for p in env.trajectory])), 1)
-        for p in env.bump_points:
-            u, v = view.px(np.array(p[:2]))[0]
+        self._draw_marks(surface, view, state.marks)
+        for polygon in state.boxes:
+            pygame.draw.polygon(surface, BOX, view.px(polygon))
+        movers = zip(state.movers, state.mover_sizes, state.mover_pause_m, strict=True)
+        for (x, y, yaw), (length, width), pause in movers:
+            centre = view.px(np.array([x, y]))[0]
+            pygame.draw.circle(surface, PAUSE, centre, max(1, int(pause * view.scale)), 1)
+            pygame.draw.polygon(surface, MOVER, view.px(_box(x, y, yaw, length, width)))
+        pose = state.pose
+        if len(state.trajectory) > 1:
+            pygame.draw.lines(surface, TRAIL, False, view.px(state.trajectory), 1)
+        for p in state.bump_points:
+            u, v = view.px(p)[0]
             pygame.draw.line(surface, BUMP, (u - 5, v - 5), (u + 5, v + 5), 2)
             pygame.draw.line(surface, BUMP, (u - 5, v + 5), (u + 5, v - 5), 2)
-        self._draw_scan(surface, view, env, pose)
-        footprint = transform_points(pose, env.config.robot.outline)
+        for u, v in view.px(state.scan_points):
+            if 0 <= u < CANVAS_PX and 0 <= v < CANVAS_PX:
+                surface.set_at((u, v), SCAN)
+        footprint = transform_points(pose, state.outline)
         pygame.draw.polygon(surface, ROBOT, view.px(footprint))
         nose = transform_points(pose, np.array([[0.0, 0.0], [0.25, 0.0]]))
         a, b = view.px(nose)
         pygame.draw.line(surface, HEADING, a, b, 2)
         if overlay is not None:
-            self._draw_overlay(surface, view, env, overlay)
-        status = f"t = {env.sim_time_s:5.1f} s   bumps = {env.physics.bumps}"
+            self._draw_overlay(surface, view, state, overlay)
+        status = f"t = {state.sim_time_s:5.1f} s   bumps = {state.bumps}"
+        if state.marks.get("status"):
+            status += f"   {state.marks['status']}"
         if overlay is not None and overlay.text:
             status += f"   {overlay.text}"
         surface.blit(self.font.render(status, True, TEXT), (8, 6))
@@ -179,23 +215,22 @@ class Renderer:
             return None
         return np.transpose(pygame.surfarray.array3d(surface), (1, 0, 2)).copy()
 
-    def _draw_scan(self, surface: Any, view: View, env: PicoEnv, pose: Pose) -> None:
-        ranges = env.last_scan.astype(float)
-        cfg = env.config.lrf
-        hit = (ranges > cfg.range_min_m) & (ranges < cfg.range_max_m)
-        angles = pose.theta + env.lrf.beam_angles[hit]
-        r = ranges[hit]
-        points = np.column_stack([pose.x + r * np.cos(angles), pose.y + r * np.sin(angles)])
-        for u, v in view.px(points):
-            if 0 <= u < CANVAS_PX and 0 <= v < CANVAS_PX:
-                surface.set_at((u, v), SCAN)
+    def _draw_marks(self, surface: Any, view: View, marks: dict[str, Any]) -> None:
+        """A task's marks: arrival squares (done ones green) with their place in the order."""
+        pygame = _pygame()
+        for square, label, done in marks.get("squares", ()):
+            pygame.draw.polygon(surface, DONE if done else SQUARE, view.px(square), 2 if not done else 0)
+            if label:
+                centre = view.px(np.mean(square, axis=0))[0]
+                text = self.font.render(label, True, TEXT)
+                surface.blit(text, (centre[0] - text.get_width() // 2, centre[1] - text.get_height() // 2))
 
-    def _draw_overlay(self, surface: Any, view: View, env: PicoEnv, overlay: Overlay) -> None:
+    def _draw_overlay(self, surface: Any, view: View, state: SceneSnapshot, overlay: Overlay) -> None:
         pygame = _pygame()
         if overlay.frame == "odom":
-            frame = env.map_from_odom
+            frame = state.map_from_odom
         elif overlay.frame == "robot":
-            frame = env.pose
+            frame = state.pose
         else:
             frame = Pose(0.0, 0.0, 0.0)
 

@@ -16,6 +16,7 @@ from gymnasium.utils.env_checker import check_env
 
 import pico_gym  # noqa: F401
 from pico_gym.envs.base import EnvConfig
+from pico_gym.tasks.escape import EscapeTaskConfig
 from pico_gym.overlay import Overlay
 
 FIXED = {"map": "escape_2018"}
@@ -296,7 +297,8 @@ def test_options_and_config_errors() -> None:
         env.reset(options={"start_pose": (0.0, 0.0, 0.0)})
     with pytest.raises(ValueError, match="no path to the finish"):
         env.reset(options={"start_pose": (-3.0, 2.0, 0.0)})  # outside the room
-    config = EnvConfig.make(rewards={"time": 0.5}, n_beams=32)
+    # EnvConfig is task-neutral: the task's config comes from the env (or is passed in).
+    config = EnvConfig.make(task=EscapeTaskConfig(), rewards={"time": 0.5}, n_beams=32)
     assert config.task.rewards.time == 0.5 and config.task.rewards.progress == 1.0 and config.lrf.n_beams == 32
 
 

@@ -1,9 +1,10 @@
 """The step template shared by pico-gym environments.
 
-`PicoEnv.step` applies the action (clipped to the robot's limits), moves the robot through the
-physics for one control period while odometry counts what the wheels did, reads the LRF, asks the
-task for reward terms and termination, and builds `info`. A task supplies what differs between
-challenges: the world and start of an episode, success, and the reward terms.
+`PicoEnv.step` applies the action (clipped to the robot's limits), moves the robot (and the
+scene's movers) through the physics for one control period while odometry counts what the wheels
+did, reads the LRF against the scene, hands the task a `StepContext` for its verdict (reward
+terms, termination, success), and builds `info`. A task (`pico_gym.tasks.base.Task`) supplies what
+differs between challenges: the episode's scene and start, success, reward terms, its info keys.
 """
 
 from __future__ import annotations
@@ -23,13 +24,16 @@ from pico_gym.physics import Physics, PhysicsConfig
 from pico_gym.robot import RobotConfig, clip_twist
 from pico_gym.sensors.lrf import Lrf, LrfConfig
 from pico_gym.sensors.odometry import Odometry, OdometryConfig
-from pico_gym.tasks.escape import TERMINATION_REASONS, Episode, EscapeTask, EscapeTaskConfig
+from pico_gym.tasks.base import BASE_OPTION_KEYS, Episode, IdleTimer, StepContext, Task, timed_out
 from pico_gym.types import Pose
 from pico_gym.world import geometry
 from pico_gym.world.geometry import compose, inverse, wrap_angle
+from pico_gym.world.scene import KINDS, SceneSnapshot
 
 # Clearance is computed exactly up to this distance; farther reads as this value [m].
 CLEARANCE_CAP_M = 2.0
+# info["cost"] (Safety Gym's convention): 1 per bump plus 1 per second closer than this to anything [m].
+COST_CLEARANCE_M = 0.1
 
 
 @dataclass(frozen=True)
@@ -43,7 +47,8 @@ class EnvConfig:
         lrf: the laser range finder.
         odometry: odometry noise.
         physics: engine settings.
-        task: the challenge's rules and rewards.
+        task: the challenge's rules and rewards: the task's own config dataclass (e.g.
+            `EscapeTaskConfig`, `HospitalTaskConfig`); each env supplies its default.
     """
 
     dt_s: float = 0.1
@@ -51,7 +56,7 @@ class EnvConfig:
     lrf: LrfConfig = field(default_factory=LrfConfig)
     odometry: OdometryConfig = field(default_factory=OdometryConfig)
     physics: PhysicsConfig = field(default_factory=PhysicsConfig)
-    task: EscapeTaskConfig = field(default_factory=EscapeTaskConfig)
+    task: Any = None
 
     def __post_init__(self) -> None:
         if self.dt_s <= 0:
@@ -63,9 +68,18 @@ class EnvConfig:
             )
 
     @staticmethod
-    def make(config: EnvConfig | None = None, **overrides: Any) -> EnvConfig:
-        """A config from a base (default: all defaults) and keyword overrides of any nested field."""
-        return with_overrides(config or EnvConfig(), **overrides)
+    def make(config: EnvConfig | None = None, task: Any = None, **overrides: Any) -> EnvConfig:
+        """A config from a base and keyword overrides of any nested field.
+
+        Args:
+            config: the base (default: all defaults, with `task` as the task config).
+            task: the task config to use when `config` is None or has none.
+            **overrides: any field of the config or of a config nested in it, by name.
+        """
+        base = config or EnvConfig(task=task)
+        if base.task is None and task is not None:
+            base = EnvConfig(base.dt_s, base.robot, base.lrf, base.odometry, base.physics, task)
+        return with_overrides(base, **overrides)
 
 
 class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
@@ -73,7 +87,7 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
 
     metadata: dict[str, Any] = {"render_modes": ["human", "rgb_array"], "render_fps": 10}
 
-    def __init__(self, task: EscapeTask, config: EnvConfig, render_mode: str | None = None) -> None:
+    def __init__(self, task: Task, config: EnvConfig, render_mode: str | None = None) -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']}, got {render_mode!r}")
         if render_mode is not None:
@@ -94,13 +108,19 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
                 ),
             }
         )
+        extra_low, extra_high = task.action_extras
+        self._n_extras = len(extra_low)
         self.action_space = gym.spaces.Box(
-            config.robot.action_low.astype(np.float32), config.robot.action_high.astype(np.float32), dtype=np.float32
+            np.concatenate([config.robot.action_low, extra_low]).astype(np.float32),
+            np.concatenate([config.robot.action_high, extra_high]).astype(np.float32),
+            dtype=np.float32,
         )
         self._outline = np.ascontiguousarray(config.robot.outline)
         self._renderer: Any = None
         self._overlay: Overlay | Callable[[], Overlay] | None = None
+        self._idle = IdleTimer(task.idle_rule)
         self.episode: Episode | None = None
+        self._finished = False
 
     # --- the episode ---------------------------------------------------------------------
     def reset(
@@ -111,26 +131,39 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         Args:
             seed: seeds `self.np_random` (every random draw of the episode comes from it).
             options: {"start_pose": (x, y, theta)} places the robot (map frame) instead of the
-                task's own start.
+                task's own start; the task documents its own options. Unknown keys are refused.
         """
         super().reset(seed=seed)
+        options = dict(options or {})
+        unknown = sorted(set(options) - BASE_OPTION_KEYS - self.task.option_keys)
+        if unknown:
+            known = ", ".join(sorted(BASE_OPTION_KEYS | self.task.option_keys))
+            raise ValueError(f"unknown reset option(s) {', '.join(map(repr, unknown))}; options are: {known}")
         start = None
-        if options and options.get("start_pose") is not None:
+        if options.get("start_pose") is not None:
             sp = options["start_pose"]
-            if len(sp) != 3 or not all(math.isfinite(float(v)) for v in sp):
+            try:
+                values = [float(v) for v in sp]
+            except (TypeError, ValueError):
+                values = []
+            if len(values) != 3 or not all(math.isfinite(v) for v in values):
                 raise ValueError(f"options['start_pose'] must be (x, y, theta) with finite values, got {sp!r}")
-            start = Pose(*(float(v) for v in sp))
-        self.episode = self.task.new_episode(self.np_random, start)
+            start = Pose(*values)
+        self.episode = self.task.new_episode(self.np_random, options, start)
         ep = self.episode
+        scene = ep.scene
+        self.scene = scene
         if start is not None:
             footprint = geometry.transform_points(start, self._outline)
-            if geometry.polygon_clearance(footprint, ep.map.solid_segments()) <= 0.0:
+            if geometry.polygon_clearance(footprint, scene.solid_segments()) <= 0.0:
                 raise ValueError(f"options['start_pose'] {tuple(start)} puts the robot in a wall")
             if not math.isfinite(ep.shortest_path_length_m):
-                raise ValueError(f"options['start_pose'] {tuple(start)} has no path to the finish line")
-        self._seen = ep.map.seen_segments()
-        self._solid = ep.map.solid_segments()
-        self.physics = Physics(self._solid, self.config.robot, self.config.physics, ep.start)
+                raise ValueError(f"options['start_pose'] {tuple(start)} has no path to {self.task.goal_name}")
+        self._seen = scene.static_seen
+        self._solid = scene.static_solid
+        self._movers = scene.mover_segments if scene.has_movers else None
+        self._mover_speed = scene.max_mover_speed_mps
+        self.physics = Physics.from_scene(scene, self.config.robot, self.config.physics, ep.start)
         odom0 = self.odometry.reset(self.np_random)
         # The odometry frame in the map: where the robot started, minus where odometry says it is.
         self._map_from_odom = compose(ep.start, inverse(odom0))
@@ -138,31 +171,39 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self._pose = ep.start
         self.steps = 0
         self.sim_time_s = 0.0
-        self._idle_s = 0.0
+        self._idle.reset()
         self._path_length = 0.0
-        self._geodesic = ep.field.lookup(ep.start.x, ep.start.y)
         self._clearance = self._footprint_clearance(ep.start)
         self._min_clearance = self._clearance
         self.trajectory = [ep.start]
         self.bump_points: list[Pose] = []
-        self.last_scan = self.lrf.scan(ep.start, self._seen, self.np_random)
-        info = self._info({}, None, False)
+        self._finished = False
+        self.last_scan = self.lrf.scan(ep.start, self._seen, self.np_random, self._movers)
+        info = self._info({}, None, False, 0.0)
+        if ep.public is not None:
+            info["task"] = ep.public
         if self.render_mode == "human":
             self.render()
         return self._observation(), info
 
     def step(self, action: np.ndarray) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
-        """Advance one control period with the body-frame twist `action` = (vx, vy, w)."""
+        """Advance one control period with the body-frame twist `action` = (vx, vy, w[, extras])."""
         if self.episode is None:
             raise RuntimeError("call reset() before step()")
+        if self._finished:
+            raise RuntimeError("this episode has ended (terminated or truncated): call reset() before step()")
         cfg = self.config
         dt = cfg.dt_s
-        vx, vy, w = clip_twist(action, cfg.robot)
-        bumps_before = self.physics.bumps
+        twist, extras = self._split_action(action)
+        vx, vy, w = clip_twist(twist, cfg.robot)
+        physics = self.physics
+        bumps_before = physics.bumps
         true_vx, true_vy, true_w = self.odometry.true_twist(vx, vy, w, dt, self.np_random)
-        self.physics.step(true_vx, true_vy, true_w, dt, self._clearance)
+        # Movers may close in during the step: the free-space shortcut needs room for that too.
+        room = self._clearance - self._mover_speed * dt if self._movers is not None else self._clearance
+        physics.step(true_vx, true_vy, true_w, dt, room)
         self.odometry.advance(vx, vy, w, dt)
-        previous, pose = self._pose, self.physics.pose
+        previous, pose = self._pose, physics.pose
         self._pose = pose
         self.steps += 1
         self.sim_time_s = self.steps * dt
@@ -170,32 +211,41 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         moved = math.hypot(pose.x - previous.x, pose.y - previous.y)
         turned = abs(wrap_angle(pose.theta - previous.theta))
         self._path_length += moved
-        task_cfg = cfg.task
-        if moved < task_cfg.idle_speed_mps * dt and turned < task_cfg.idle_turn_rate_radps * dt:
-            self._idle_s += dt
-        else:
-            self._idle_s = 0.0
-        geodesic = self.episode.field.lookup(pose.x, pose.y)
-        progress = self._geodesic - geodesic if math.isfinite(geodesic) and math.isfinite(self._geodesic) else 0.0
-        self._geodesic = geodesic
+        idle_s = self._idle.update(moved, turned, dt)
         previous_clearance = self._clearance
         self._clearance = self._footprint_clearance(pose)
         self._min_clearance = min(self._min_clearance, self._clearance)
-        new_bumps = self.physics.bumps - bumps_before
+        new_bumps = physics.bumps - bumps_before
+        kinds: tuple[str, ...] = ()
         if new_bumps:
             self.bump_points.append(pose)
+            kinds = tuple(physics.bump_log[-new_bumps:])
         self.trajectory.append(pose)
 
-        outcome = self.task.evaluate(
-            pose, progress, new_bumps, self.physics.bumps, self._idle_s, dt, self._clearance, previous_clearance
+        ctx = StepContext(
+            previous,
+            pose,
+            (true_vx, true_vy, true_w),
+            new_bumps,
+            kinds,
+            physics.bumps,
+            idle_s,
+            dt,
+            self.sim_time_s,
+            self._clearance,
+            previous_clearance,
+            extras,
         )
+        outcome = self.task.evaluate(ctx)
         reason = outcome.termination_reason
         terminated = reason is not None
-        truncated = not terminated and self.sim_time_s >= task_cfg.time_limit_s - 1e-9
+        truncated = not terminated and timed_out(self.sim_time_s, self.task.time_limit_s)
         if truncated:
             reason = "timeout"
+        self._finished = terminated or truncated
         reward = float(sum(outcome.reward_terms.values()))
-        self.last_scan = self.lrf.scan(pose, self._seen, self.np_random)
+        cost = float(new_bumps) + (dt if self._clearance < COST_CLEARANCE_M else 0.0)
+        self.last_scan = self.lrf.scan(pose, self._seen, self.np_random, self._movers)
         if self.render_mode == "human":
             self.render()
         return (
@@ -203,34 +253,57 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
             reward,
             terminated,
             truncated,
-            self._info(outcome.reward_terms, reason, outcome.is_success),
+            self._info(outcome.reward_terms, reason, outcome.is_success, cost),
         )
 
+    def _split_action(self, action: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        a = np.asarray(action, dtype=np.float64).reshape(-1)
+        n = 3 + self._n_extras
+        if a.size != n:
+            names = "(vx, vy, w" + "".join(f", extra{i}" for i in range(self._n_extras)) + ")"
+            raise ValueError(f"action must have {n} components {names}, got shape {np.shape(action)}")
+        if self._n_extras == 0:
+            return a, a[3:]
+        extras = a[3:]
+        for i, value in enumerate(extras.tolist()):
+            if not math.isfinite(value):
+                raise ValueError(f"action component {3 + i} (after the twist) is {value}; actions must be finite")
+        return a[:3], extras
+
     def _footprint_clearance(self, pose: Pose) -> float:
-        return float(
-            geometry.footprint_clearance(pose.x, pose.y, pose.theta, self._outline, self._solid, CLEARANCE_CAP_M)
-        )
+        x, y, th = pose
+        clearance = geometry.footprint_clearance(x, y, th, self._outline, self._solid, CLEARANCE_CAP_M)
+        if self._movers is not None:
+            clearance = min(
+                clearance,
+                geometry.footprint_clearance(x, y, th, self._outline, self._movers, CLEARANCE_CAP_M),
+            )
+        return float(clearance)
 
     def _observation(self) -> dict[str, np.ndarray]:
         return {"lrf": self.last_scan, "odom": np.array(self.odometry.pose, dtype=np.float32)}
 
-    def _info(self, reward_terms: dict[str, float], reason: str | None, success: bool) -> dict[str, Any]:
-        assert reason is None or reason in TERMINATION_REASONS
+    def _info(self, reward_terms: dict[str, float], reason: str | None, success: bool, cost: float) -> dict[str, Any]:
+        assert reason is None or reason in self.task.termination_reasons
         pose = self._pose
-        return {
+        physics = self.physics
+        info = {
             "pose": np.array(pose),
             "odom_error": self.odometry_error(),
-            "bumps": self.physics.bumps,
+            "bumps": physics.bumps,
+            "bumps_by_kind": dict(zip(KINDS, physics.bumps_by_kind, strict=True)),
             "clearance": self._clearance,
             "min_clearance": self._min_clearance,
             "sim_time": self.sim_time_s,
             "path_length": self._path_length,
-            "geodesic_to_finish": self._geodesic,
             "shortest_path_length": self.episode.shortest_path_length_m,
             "is_success": success,
             "termination_reason": reason,
             "reward_terms": reward_terms,
+            "cost": cost,
         }
+        info.update(self.task.info())
+        return info
 
     def odometry_error(self) -> np.ndarray:
         """Odometry minus the truth, in the odometry frame: (dx, dy, dtheta)."""
@@ -247,6 +320,37 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
     def map_from_odom(self) -> Pose:
         """Where the odometry frame's origin lies in the map frame (privileged)."""
         return self._map_from_odom
+
+    def snapshot(self) -> SceneSnapshot:
+        """The current state as a value, for drawing (the renderer reads nothing else)."""
+        if self.episode is None:
+            raise RuntimeError("call reset() before snapshot()")
+        scene = self.scene
+        pose = self._pose
+        ranges = self.last_scan.astype(float)
+        cfg = self.config.lrf
+        hit = (ranges > cfg.range_min_m) & (ranges < cfg.range_max_m)
+        angles = pose.theta + self.lrf.beam_angles[hit]
+        r = ranges[hit]
+        movers = scene.movers
+        marks_fn = getattr(self.task, "marks", None)
+        return SceneSnapshot(
+            map=scene.map,
+            closed_doors=scene.closed_doors,
+            boxes=scene.boxes,
+            movers=scene.mover_poses(),
+            mover_sizes=np.array([(m.record.length, m.record.width) for m in movers]).reshape(-1, 2),
+            mover_pause_m=np.array([m.record.pause_radius_m for m in movers]),
+            pose=pose,
+            outline=self._outline,
+            trajectory=np.array([p[:2] for p in self.trajectory]),
+            bump_points=np.array([p[:2] for p in self.bump_points]).reshape(-1, 2),
+            scan_points=np.column_stack([pose.x + r * np.cos(angles), pose.y + r * np.sin(angles)]),
+            map_from_odom=self._map_from_odom,
+            sim_time_s=self.sim_time_s,
+            bumps=self.physics.bumps,
+            marks=marks_fn() if marks_fn is not None else {},
+        )
 
     # --- rendering -----------------------------------------------------------------------
     def set_overlay(self, overlay: Overlay | Callable[[], Overlay] | None) -> None:
@@ -265,7 +369,7 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
 
             self._renderer = Renderer(self.render_mode, self.metadata["render_fps"])
         overlay = self._overlay() if callable(self._overlay) else self._overlay
-        return self._renderer.draw(self, overlay)
+        return self._renderer.draw(self.snapshot(), overlay)
 
     def close(self) -> None:
         if self._renderer is not None:

@@ -6,7 +6,7 @@ import os
 from typing import Any
 
 from pico_gym.envs.base import EnvConfig, PicoEnv
-from pico_gym.tasks.escape import EscapeTask
+from pico_gym.tasks.escape import EscapeTask, EscapeTaskConfig
 from pico_gym.world.catalog import load_shipped
 from pico_gym.world.map import Map, load_map
 
@@ -78,6 +78,9 @@ class PicoEscapeEnv(PicoEnv):
     registered spec has no `max_episode_steps`. A bump is the footprint coming within the 1 cm
     contact skin of something (see `PhysicsConfig.contact_skin_m`).
 
+    `reset(options=...)` accepts `start_pose` only; an unknown key raises ValueError.
+    Stepping an episode that has ended raises RuntimeError (call reset).
+
     ## Version History
     - v0: initial version.
     """
@@ -95,5 +98,10 @@ class PicoEscapeEnv(PicoEnv):
         fixed = load_shipped(map) if isinstance(map, str) else map
         if map_path is not None:
             fixed = load_map(map_path)
-        env_config = EnvConfig.make(config, **options)
+        env_config = EnvConfig.make(config, task=EscapeTaskConfig(), **options)
         super().__init__(EscapeTask(env_config.task, env_config.robot, fixed), env_config, render_mode)
+
+    @staticmethod
+    def default_config() -> EnvConfig:
+        """The env's config with every default (what `gym.make` options override)."""
+        return EnvConfig(task=EscapeTaskConfig())

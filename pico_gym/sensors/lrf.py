@@ -95,9 +95,12 @@ def _cast(
     beam_sin: FloatArray,
     max_range: float,
     out: FloatArray,
+    clear: bool,
 ) -> None:
+    """Exact ranges into `out`; with clear=False, only shortens what `out` holds (a second set)."""
     n = beam_angles.shape[0]
-    out[:] = math.inf
+    if clear:
+        out[:] = math.inf
     a_lo = beam_angles[0]
     a_hi = beam_angles[n - 1]
     c = math.cos(theta)
@@ -206,6 +209,7 @@ def lrf_ranges(
         np.sin(beam_angles),
         float(max_range),
         out,
+        True,
     )
     out[out > max_range] = math.inf
     return out
@@ -229,27 +233,38 @@ class Lrf:
         """The observation space of a scan, metres."""
         return gym.spaces.Box(0.0, self.config.range_max_m, shape=(self.config.n_beams,), dtype=np.float32)
 
-    def exact(self, pose: Pose, segments: Segments) -> FloatArray:
-        """Noiseless ranges (inf for no hit). The returned array is reused by the next call."""
+    def exact(self, pose: Pose, segments: Segments, dynamic: Segments | None = None) -> FloatArray:
+        """Noiseless ranges (inf for no hit). The returned array is reused by the next call.
+
+        Args:
+            pose: sensor pose.
+            segments: the static segments the laser sees.
+            dynamic: more segments (the movers' boxes, rewritten every step), cast into the same
+                ranges without joining the two arrays.
+        """
         cfg = self.config
-        _cast(
-            pose[0], pose[1], pose[2], segments, self.beam_angles, self._cos, self._sin, cfg.range_max_m, self._ranges
-        )
+        x, y, th = pose[0], pose[1], pose[2]
+        _cast(x, y, th, segments, self.beam_angles, self._cos, self._sin, cfg.range_max_m, self._ranges, True)
+        if dynamic is not None and len(dynamic):
+            _cast(x, y, th, dynamic, self.beam_angles, self._cos, self._sin, cfg.range_max_m, self._ranges, False)
         return self._ranges
 
-    def scan(self, pose: Pose, segments: Segments, rng: np.random.Generator) -> np.ndarray:
+    def scan(
+        self, pose: Pose, segments: Segments, rng: np.random.Generator, dynamic: Segments | None = None
+    ) -> np.ndarray:
         """A reading as the robot gets it: noise added, clipped to the range, no-hit convention.
 
         Args:
             pose: sensor pose in the map frame.
-            segments: the segments the laser sees.
+            segments: the static segments the laser sees.
             rng: the generator the noise is drawn from.
+            dynamic: segments that move (see `exact`).
 
         Returns:
             float32 ranges in [0, range_max_m].
         """
         cfg = self.config
-        ranges = self.exact(pose, segments)
+        ranges = self.exact(pose, segments, dynamic)
         unit = rng.random(cfg.n_beams) if cfg.noise_m > 0.0 else np.full(cfg.n_beams, 0.5)
         no_hit = 0.0 if cfg.no_hit == "zero" else cfg.range_max_m
         out = np.empty(cfg.n_beams, dtype=np.float32)

@@ -8,21 +8,22 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Literal, NamedTuple
+from typing import Any, Literal
 
 import numpy as np
 
 from pico_gym.jit import njit
 from pico_gym.robot import RobotConfig
 from pico_gym.sensors.lrf import lrf_ranges
+from pico_gym.tasks.base import IDLE_TIME_S, Episode, GeodesicProgress, IdleRule, StepContext, StepOutcome
 from pico_gym.types import FloatArray, Pose
 from pico_gym.world import geometry
-from pico_gym.world.escape_room import EscapeRoom, EscapeRoomConfig, generate_escape_room, sample_start_pose
+from pico_gym.world.escape_room import EscapeRoomConfig, generate_escape_room, sample_start_pose
 from pico_gym.world.grid import GeodesicField, Grid, geodesic_field
 from pico_gym.world.map import Map
+from pico_gym.world.scene import Scene
 
 # Competition rules: 30 s without sensible movement ends a trial; 5 minutes per team.
-IDLE_TIME_S = 30.0
 TIME_LIMIT_S = 300.0
 
 TERMINATION_REASONS = ("escaped", "bump", "idle", "timeout")
@@ -100,6 +101,10 @@ class EscapeTaskConfig:
         if self.time_limit_s <= 0 or self.idle_time_s <= 0:
             raise ValueError("time_limit_s and idle_time_s must be positive")
 
+    @property
+    def idle_rule(self) -> IdleRule:
+        return IdleRule(self.idle_time_s, self.idle_speed_mps, self.idle_turn_rate_radps)
+
 
 @njit
 def _min_signed_distance(
@@ -151,27 +156,12 @@ def _closeness(clearance_m: float, within_m: float) -> float:
     return max(0.0, 1.0 - clearance_m / within_m)
 
 
-class StepOutcome(NamedTuple):
-    """The task's verdict on a step."""
-
-    reward_terms: dict[str, float]
-    termination_reason: str | None
-    is_success: bool
-
-
-@dataclass(frozen=True)
-class Episode:
-    """What the task fixes at reset: the world, the start and the privileged progress field."""
-
-    map: Map
-    start: Pose
-    field: GeodesicField
-    shortest_path_length_m: float
-    room: EscapeRoom | None = None
-
-
 class EscapeTask:
-    """Spawning, success, reward terms and termination for the escape room."""
+    """Spawning, success, reward terms and termination for the escape room (a `Task`)."""
+
+    termination_reasons = TERMINATION_REASONS
+    option_keys: frozenset[str] = frozenset()
+    goal_name = "the finish line"
 
     def __init__(self, config: EscapeTaskConfig, robot: RobotConfig, fixed_map: Map | None = None) -> None:
         if fixed_map is not None and fixed_map.finish is None:
@@ -183,9 +173,24 @@ class EscapeTask:
         self._field_cache: tuple[Map, GeodesicField] | None = None
         self._finish_point = np.zeros(2)
         self._finish_normal = np.zeros(2)
+        self._progress: GeodesicProgress | None = None
+
+    @property
+    def idle_rule(self) -> IdleRule:
+        return self.config.idle_rule
+
+    @property
+    def time_limit_s(self) -> float:
+        return self.config.time_limit_s
+
+    @property
+    def action_extras(self) -> tuple[np.ndarray, np.ndarray]:
+        return np.zeros(0), np.zeros(0)
 
     # --- reset -------------------------------------------------------------------------
-    def new_episode(self, rng: np.random.Generator, start: Pose | None = None) -> Episode:
+    def new_episode(
+        self, rng: np.random.Generator, options: dict[str, Any] | None = None, start: Pose | None = None
+    ) -> Episode:
         """Draw (or take) the world and the start pose, and prepare the progress field."""
         room = None
         if self.fixed_map is None:
@@ -205,7 +210,10 @@ class EscapeTask:
         # the whole robot is across.
         rear = float(-self.robot.outline[:, 0].min())
         shortest = field.lookup(start.x, start.y) + rear
-        return Episode(world, start, field, shortest, room)
+        self._progress = GeodesicProgress(field, start)
+        # Every door of an escape map is closed (a door leaf is part of the room).
+        scene = Scene(world, closed_doors=tuple(range(len(world.door_segments))))
+        return Episode(scene, start, shortest, extra={"field": field, "room": room})
 
     def _field(self, world: Map) -> GeodesicField:
         if self._field_cache is not None and self._field_cache[0] is world:
@@ -258,24 +266,19 @@ class EscapeTask:
         p, n = self._finish_point, self._finish_normal
         return _min_signed_distance(pose.x, pose.y, pose.theta, self.robot.outline, p[0], p[1], n[0], n[1])
 
-    def evaluate(
-        self,
-        pose: Pose,
-        progress_m: float,
-        new_bumps: int,
-        bumps: int,
-        idle_s: float,
-        dt_s: float,
-        clearance_m: float = math.inf,
-        previous_clearance_m: float = math.inf,
-    ) -> StepOutcome:
+    def evaluate(self, ctx: StepContext) -> StepOutcome:
         """Judge one step: its reward terms, and why the episode ends now (or None)."""
-        escaped = self.past_finish(pose) > 0.0
+        progress = self._progress.update(ctx.pose)
+        escaped = self.past_finish(ctx.pose) > 0.0
         return StepOutcome(
-            self.reward_terms(progress_m, escaped, new_bumps, dt_s, clearance_m, previous_clearance_m),
-            self.termination(escaped, bumps, idle_s),
+            self.reward_terms(progress, escaped, ctx.new_bumps, ctx.dt_s, ctx.clearance_m, ctx.previous_clearance_m),
+            self.termination(escaped, ctx.bumps, ctx.idle_s),
             escaped,
         )
+
+    def info(self) -> dict[str, Any]:
+        """`geodesic_to_finish`: the oracle's remaining path length to the finish line [m]."""
+        return {"geodesic_to_finish": self._progress.value}
 
     def reward_terms(
         self,

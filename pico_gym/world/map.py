@@ -108,6 +108,21 @@ class Map:
         return np.ascontiguousarray(np.vstack(parts)) if parts else np.zeros((0, 4))
 
     @cached_property
+    def structure_segments(self) -> Segments:
+        """The building alone: the file's walls plus visible heightmap blocks (no cabinets)."""
+        parts = [self._index_segments(self.walls)]
+        if self._heightmap_geometry is not None:
+            parts.append(self._heightmap_geometry.visible)
+        return np.ascontiguousarray(np.vstack(parts))
+
+    @cached_property
+    def cabinet_segments(self) -> Segments:
+        """The cabinets' outlines (each cabinet's front first)."""
+        if not self.cabinets:
+            return np.zeros((0, 4))
+        return np.ascontiguousarray(np.vstack([self._index_segments(c) for c in self.cabinets]))
+
+    @cached_property
     def low_segments(self) -> Segments:
         """Solid obstacles below the laser plane (from heightmaps): bumped into, never seen."""
         geo = self._heightmap_geometry
