@@ -16,8 +16,8 @@ from gymnasium.utils.env_checker import check_env
 
 import pico_gym  # noqa: F401
 from pico_gym.envs.base import EnvConfig
-from pico_gym.tasks.escape import EscapeTaskConfig
 from pico_gym.overlay import Overlay
+from pico_gym.tasks.escape import EscapeTaskConfig
 
 FIXED = {"map": "escape_2018"}
 

@@ -119,9 +119,7 @@ def mover_record(data: Any, where: str) -> MoverRecord:
         raise ValueError(f"{where}.trigger_radius: must be >= 0, got {values['trigger_radius']}")
     if not isinstance(data["repeat"], bool):
         raise ValueError(f"{where}.repeat: expected true or false, got {data['repeat']!r}")
-    return MoverRecord(
-        init_pose=pose("init_pose"), final_pose=pose("final_pose"), repeat=data["repeat"], **values
-    )
+    return MoverRecord(init_pose=pose("init_pose"), final_pose=pose("final_pose"), repeat=data["repeat"], **values)
 
 
 def box_corners(x: float, y: float, yaw: float, length: float, width: float) -> FloatArray:
