@@ -10,13 +10,18 @@ from gymnasium.envs.registration import register, registry
 
 __version__ = "0.1.0"
 
-ENV_IDS = ("PicoEscape-v0",)
+ENV_IDS = ("PicoEscape-v0", "PicoHospital-v0")
+_ENTRY_POINTS = {
+    "PicoEscape-v0": "pico_gym.envs.escape_env:PicoEscapeEnv",
+    "PicoHospital-v0": "pico_gym.envs.hospital_env:PicoHospitalEnv",
+}
 
 
 def register_envs() -> None:
     """Register pico-gym's ids with Gymnasium; a second call does nothing."""
-    if "PicoEscape-v0" not in registry:
-        register(id="PicoEscape-v0", entry_point="pico_gym.envs.escape_env:PicoEscapeEnv")
+    for env_id, entry_point in _ENTRY_POINTS.items():
+        if env_id not in registry:
+            register(id=env_id, entry_point=entry_point)
 
 
 register_envs()

@@ -71,6 +71,19 @@ class PhysicsConfig:
             raise ValueError("PhysicsConfig: substep_s must be > 0 and iterations >= 1")
 
 
+def glide_positions(x: float, y: float, theta: float, vx: float, vy: float, w: float, n: int, h: float) -> np.ndarray:
+    """(n, 2) positions at times 0, h, ..., (n - 1) h of a body driven by a constant body-frame twist."""
+    t = np.arange(n) * h
+    if abs(w) < 1e-12:
+        c, s = math.cos(theta), math.sin(theta)
+        return np.column_stack([x + (c * vx - s * vy) * t, y + (s * vx + c * vy) * t])
+    a = theta + w * t
+    # Integral of R(theta + w t) (vx, vy) dt from 0 to t.
+    sx = (np.sin(a) - math.sin(theta)) / w
+    cx = (math.cos(theta) - np.cos(a)) / w
+    return np.column_stack([x + vx * sx - vy * cx, y + vx * cx + vy * sx])
+
+
 class Physics:
     """One episode's pymunk world with the robot in it.
 
@@ -105,11 +118,12 @@ class Physics:
             wall.collision_type = _KIND_BASE + int(kind)
             space.add(wall)
         self._mover_bodies: list[pymunk.Body] = []
-        for mover in scene.movers if scene is not None else ():
+        movers = scene.movers if scene is not None else None
+        for i, rec in enumerate(movers.records if movers is not None else ()):
             body = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
-            body.position = (mover.x, mover.y)
-            body.angle = mover.yaw
-            rec = mover.record
+            x, y, yaw = movers.state[i, :3]
+            body.position = (float(x), float(y))
+            body.angle = float(yaw)
             shape = pymunk.Poly.create_box(body, (rec.length, rec.width))
             shape.friction = 0.0
             shape.collision_type = _KIND_BASE + MOVER
@@ -230,26 +244,26 @@ class Physics:
 
     def _move_movers(self, h: float) -> None:
         """Advance the scene's movers by one sub-step and give their bodies the matching velocity."""
-        scene = self.scene
+        movers = self.scene.movers
         x, y = self.body.position
-        before = [(m.x, m.y) for m in scene.movers]
-        scene.advance_movers(h, float(x), float(y))
-        for body, mover, (bx, by) in zip(self._mover_bodies, scene.movers, before, strict=True):
-            body.velocity = ((mover.x - bx) / h, (mover.y - by) / h)
+        before = movers.positions().copy()
+        movers.advance(h, float(x), float(y))
+        for body, (bx, by), (ax, ay) in zip(
+            self._mover_bodies, before.tolist(), movers.positions().tolist(), strict=True
+        ):
+            body.velocity = ((ax - bx) / h, (ay - by) / h)
 
     def _place_movers(self) -> None:
         """Put the kinematic bodies exactly where the scene's movers are (no drift)."""
-        for body, mover in zip(self._mover_bodies, self.scene.movers, strict=True):
-            body.position = (mover.x, mover.y)
+        for body, (x, y) in zip(self._mover_bodies, self.scene.movers.positions().tolist(), strict=True):
+            body.position = (x, y)
         self.scene.update_movers()
 
     def _advance_movers_gliding(self, vx: float, vy: float, w: float, n: int, h: float) -> None:
-        """The movers' sub-steps while the robot glides (no contact possible this step)."""
+        """The movers' sub-steps while the robot glides (no contact possible this step): the robot's
+        position at the start of each sub-step is the exact integral of the twist."""
         x, y = self.body.position
-        start = Pose(float(x), float(y), self.body.angle)
-        for k in range(n):
-            at = integrate_twist(start, vx, vy, w, k * h)
-            self.scene.advance_movers(h, at.x, at.y)
+        self.scene.movers.advance_along(h, glide_positions(float(x), float(y), self.body.angle, vx, vy, w, n, h))
         for body in self._mover_bodies:
             body.velocity = (0.0, 0.0)
         self._place_movers()

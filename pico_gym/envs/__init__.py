@@ -6,6 +6,7 @@ import importlib
 from typing import Any
 
 from pico_gym.envs.escape_env import PicoEscapeEnv
+from pico_gym.envs.hospital_env import PicoHospitalEnv
 
 
 def env_class(spec: Any) -> Any:
@@ -17,4 +18,4 @@ def env_class(spec: Any) -> Any:
     return getattr(importlib.import_module(module), name)
 
 
-__all__ = ["PicoEscapeEnv", "env_class"]
+__all__ = ["PicoEscapeEnv", "PicoHospitalEnv", "env_class"]

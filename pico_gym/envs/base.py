@@ -332,15 +332,15 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         hit = (ranges > cfg.range_min_m) & (ranges < cfg.range_max_m)
         angles = pose.theta + self.lrf.beam_angles[hit]
         r = ranges[hit]
-        movers = scene.movers
+        records = scene.movers.records
         marks_fn = getattr(self.task, "marks", None)
         return SceneSnapshot(
             map=scene.map,
             closed_doors=scene.closed_doors,
             boxes=scene.boxes,
             movers=scene.mover_poses(),
-            mover_sizes=np.array([(m.record.length, m.record.width) for m in movers]).reshape(-1, 2),
-            mover_pause_m=np.array([m.record.pause_radius_m for m in movers]),
+            mover_sizes=np.array([(r.length, r.width) for r in records]).reshape(-1, 2),
+            mover_pause_m=np.array([r.pause_radius_m for r in records]),
             pose=pose,
             outline=self._outline,
             trajectory=np.array([p[:2] for p in self.trajectory]),

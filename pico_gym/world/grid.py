@@ -181,6 +181,88 @@ def _lookup(dist: FloatArray, fx: float, fy: float) -> float:
     return best
 
 
+@dataclass(frozen=True)
+class CostGrid:
+    """The travel cost of every cell of a grid for the robot's origin (inf = blocked).
+
+    Cells closer to a wall than `inflation_m` (at least half a diagonal grid step, so no grid edge
+    crosses a wall) are blocked; cells within the comfort clearance cost more. Computed once per
+    world and shared by every goal's field.
+    """
+
+    grid: Grid
+    cost: FloatArray
+    knight_ok: np.ndarray
+
+    @staticmethod
+    def of(
+        grid: Grid,
+        segments: Segments,
+        comfort_clearance_m: float = 0.1,
+        near_wall_cost: float = 3.0,
+        inflation_m: float = 0.0,
+    ) -> CostGrid:
+        res = grid.resolution
+        block_m = max(0.5 * math.sqrt(2.0) * res + 1e-9, inflation_m)
+        clearance = clearance_grid(grid, segments, cap=max(comfort_clearance_m, 2 * res, block_m) + res)
+        return CostGrid.from_clearance(grid, clearance, comfort_clearance_m, near_wall_cost, inflation_m)
+
+    @staticmethod
+    def from_clearance(
+        grid: Grid,
+        clearance: FloatArray,
+        comfort_clearance_m: float = 0.1,
+        near_wall_cost: float = 3.0,
+        inflation_m: float = 0.0,
+    ) -> CostGrid:
+        """The cost grid from a clearance grid (capped above the comfort and inflation distances)."""
+        res = grid.resolution
+        block_m = max(0.5 * math.sqrt(2.0) * res + 1e-9, inflation_m)
+        cost = np.where(clearance < comfort_clearance_m, near_wall_cost, 1.0)
+        cost[clearance < block_m] = np.inf
+        knight_ok = clearance > max(0.5 * math.sqrt(5.0) * res + 1e-9, inflation_m)
+        return CostGrid(grid, cost, knight_ok)
+
+    def field_from(self, seeds_r: np.ndarray, seeds_c: np.ndarray, seeds_v: FloatArray) -> GeodesicField:
+        """The shortest-path distance from seed cells (with their initial values) to every cell."""
+        distance = _dijkstra(
+            self.cost,
+            self.knight_ok,
+            seeds_r.astype(np.int64),
+            seeds_c.astype(np.int64),
+            np.asarray(seeds_v, dtype=np.float64),
+            self.grid.resolution,
+        )
+        return GeodesicField(self.grid, distance)
+
+    def field_to_region(self, polygon: FloatArray) -> GeodesicField:
+        """Distance to a region (a convex polygon, e.g. an arrival square): 0 inside it."""
+        xs, ys = self.grid.centres()
+        inside = _inside_convex(xs, ys, np.asarray(polygon, dtype=np.float64)) & np.isfinite(self.cost)
+        seeds_r, seeds_c = np.nonzero(inside)
+        return self.field_from(seeds_r, seeds_c, np.zeros(len(seeds_r)))
+
+    def field_from_point(self, x: float, y: float) -> GeodesicField:
+        """Distance from a point (its cell) to every cell: what is reachable from there."""
+        g = self.grid
+        c = int(np.clip((x - g.x0) / g.resolution, 0, g.shape[1] - 1))
+        r = int(np.clip((y - g.y0) / g.resolution, 0, g.shape[0] - 1))
+        return self.field_from(np.array([r]), np.array([c]), np.zeros(1))
+
+
+def _inside_convex(xs: FloatArray, ys: FloatArray, polygon: FloatArray) -> np.ndarray:
+    """Cells whose centre lies inside a convex polygon (either orientation)."""
+    inside_ccw = np.ones(xs.shape, dtype=bool)
+    inside_cw = np.ones(xs.shape, dtype=bool)
+    n = len(polygon)
+    for i in range(n):
+        (ax, ay), (bx, by) = polygon[i], polygon[(i + 1) % n]
+        cross = (bx - ax) * (ys - ay) - (by - ay) * (xs - ax)
+        inside_ccw &= cross >= -1e-12
+        inside_cw &= cross <= 1e-12
+    return inside_ccw | inside_cw
+
+
 def geodesic_field(
     grid: Grid,
     segments: Segments,
@@ -203,13 +285,7 @@ def geodesic_field(
         The field; cells beyond the line hold minus their distance past it.
     """
     res = grid.resolution
-    clearance = clearance_grid(grid, segments, cap=max(comfort_clearance_m, 2 * res) + res)
-    cost = np.where(clearance < comfort_clearance_m, near_wall_cost, 1.0)
-    # A grid edge between two cells each farther than half its length from every wall cannot
-    # cross a wall.
-    cost[clearance < 0.5 * math.sqrt(2.0) * res + 1e-9] = np.inf
-    knight_ok = clearance > 0.5 * math.sqrt(5.0) * res + 1e-9
-
+    costs = CostGrid.of(grid, segments, comfort_clearance_m, near_wall_cost)
     xs, ys = grid.centres()
     (ax, ay), (bx, by) = line
     ux, uy = bx - ax, by - ay
@@ -222,7 +298,6 @@ def geodesic_field(
     across = (xs - ax) * nx + (ys - ay) * ny
     # Seeds: cells past the line (within its extent, widened by one cell) or on it.
     past = (across >= -0.5 * res) & (along >= -res) & (along <= length + res)
-    seeds_r, seeds_c = np.nonzero(past & np.isfinite(cost))
+    seeds_r, seeds_c = np.nonzero(past & np.isfinite(costs.cost))
     seeds_v = -np.maximum(across[seeds_r, seeds_c], 0.0)
-    distance = _dijkstra(cost, knight_ok, seeds_r.astype(np.int64), seeds_c.astype(np.int64), seeds_v, res)
-    return GeodesicField(grid, distance)
+    return costs.field_from(seeds_r, seeds_c, seeds_v)

@@ -22,6 +22,7 @@ from pico_gym.robot import PICO_OUTLINE
 from pico_gym.types import FloatArray, Pose, Segments
 from pico_gym.world import geometry
 from pico_gym.world.heightmap import COURSE_RESOLUTION_M, HeightmapGeometry, ImageError, heightmap_geometry, read_grey
+from pico_gym.world.movers import MoverRecord, mover_record
 
 FORMAT_VERSION = 1
 IMAGE_SUFFIXES = (".png", ".pgm", ".pbm", ".ppm", ".bmp", ".jpg", ".jpeg", ".gif", ".tif", ".tiff")
@@ -40,7 +41,6 @@ _KNOWN_KEYS = {
     "movers",
     "heightmap",
 }
-_MOVER_KEYS = ("length", "width", "trigger_radius", "velocity", "init_pose", "final_pose", "repeat")
 
 
 class MapError(ValueError):
@@ -73,7 +73,7 @@ class Map:
     finish: FloatArray | None = None
     start_pose: Pose | None = None
     obstacles: tuple[FloatArray, ...] = ()
-    movers: tuple[dict[str, Any], ...] = ()
+    movers: tuple[MoverRecord, ...] = ()
     heightmap: Heightmap | None = None
     extra: dict[str, Any] = field(default_factory=dict)
     source: Path | None = None
@@ -313,14 +313,7 @@ def map_from_dict(data: Any, source: Path | None = None) -> Map:
             raise _fail(where, f"obstacles[{k}]", "expected {'polygon': [[x, y], ...]} with at least 3 vertices")
         obstacles.append(np.array([_xy(p, where, f"obstacles[{k}].polygon[{i}]") for i, p in enumerate(poly)]))
 
-    movers = []
-    for k, mv in enumerate(data.get("movers", [])):
-        if not isinstance(mv, dict):
-            raise _fail(where, f"movers[{k}]", f"expected an object, got {mv!r}")
-        for key in _MOVER_KEYS:
-            if key not in mv:
-                raise _fail(where, f"movers[{k}]", f"missing key '{key}'")
-        movers.append(dict(mv))
+    movers = _movers(data.get("movers", []), source, where)
 
     heightmap = None
     if "heightmap" in data:
@@ -353,6 +346,66 @@ def map_from_dict(data: Any, source: Path | None = None) -> Map:
     if start_pose is not None:
         _check_start_pose(result, where)
     return result
+
+
+def _movers(value: Any, source: Path | None, where: Any) -> tuple[MoverRecord, ...]:
+    """The `movers` key: course records in the map frame, or a course config file placed by a frame.
+
+    `{"config": "hospital_2021_config.json", "frame": [x, y, yaw]}` reads the course simulator's
+    config file as it is (its "objects") and converts each pose from the course frame into the map
+    frame; `frame` is the course frame's origin and heading in the map (default: the identity).
+    """
+    if isinstance(value, dict):
+        if not isinstance(value.get("config"), str):
+            raise _fail(where, "movers", "expected a list of records or {'config': 'file.json', 'frame': [x, y, yaw]}")
+        base = source.parent if source is not None else Path.cwd()
+        path = base / value["config"]
+        try:
+            config = json.loads(path.read_text())
+        except OSError as error:
+            raise _fail(where, "movers.config", f"cannot read {path}: {error.strerror}") from None
+        except json.JSONDecodeError as error:
+            raise _fail(
+                where, "movers.config", f"{path} is not valid JSON: {error.msg} at line {error.lineno}"
+            ) from None
+        if not isinstance(config, dict) or not isinstance(config.get("objects", []), list):
+            raise _fail(where, "movers.config", f"{path}: expected a course config with a list 'objects'")
+        frame = value.get("frame", [0.0, 0.0, 0.0])
+        if not (isinstance(frame, list) and len(frame) == 3):
+            raise _fail(where, "movers.frame", f"expected [x, y, yaw], got {frame!r}")
+        fx, fy, fth = (_number(v, where, f"movers.frame[{i}]") for i, v in enumerate(frame))
+        c, s = math.cos(fth), math.sin(fth)
+        out = []
+        for k, raw in enumerate(config.get("objects", [])):
+            try:
+                rec = mover_record(raw, f"{path}: objects[{k}]")
+            except ValueError as error:
+                raise MapError(f"{where}: movers.config: {error}") from None
+
+            def place(p: tuple[float, float, float]) -> tuple[float, float, float]:
+                return (fx + c * p[0] - s * p[1], fy + s * p[0] + c * p[1], p[2] + fth)
+
+            out.append(
+                MoverRecord(
+                    rec.length,
+                    rec.width,
+                    rec.trigger_radius,
+                    rec.velocity,
+                    place(rec.init_pose),
+                    place(rec.final_pose),
+                    rec.repeat,
+                )
+            )
+        return tuple(out)
+    if not isinstance(value, list):
+        raise _fail(where, "movers", f"expected a list of moving-object records, got {type(value).__name__}")
+    out = []
+    for k, raw in enumerate(value):
+        try:
+            out.append(mover_record(raw, f"movers[{k}]"))
+        except ValueError as error:
+            raise MapError(f"{where}: {error}") from None
+    return tuple(out)
 
 
 def _check_start_pose(world: Map, where: Any) -> None:
@@ -403,7 +456,7 @@ def map_to_dict(world: Map, relative_to: Path | None = None) -> dict[str, Any]:
     if world.obstacles:
         data["obstacles"] = [{"polygon": p.tolist()} for p in world.obstacles]
     if world.movers:
-        data["movers"] = [dict(m) for m in world.movers]
+        data["movers"] = [m.to_dict() for m in world.movers]
     if world.heightmap is not None:
         image = world.heightmap.image
         if world.source is not None and relative_to is not None:

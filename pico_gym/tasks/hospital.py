@@ -1,0 +1,593 @@
+"""The hospital task (2019-2021): visit cabinets in a given order on a given map.
+
+Course rules (hospital-facts.md): PICO is given the map and starts in a 1 x 1 m start area with an
+arbitrary heading; it visits cabinets in the order announced before the start, standing with its
+centre in the square in front of each cabinet's front (side = the front's length) and facing it,
+and announces arrival; some doors turn out to be closed, boxes that are not on the map stand in
+the way and people walk about. A trial ends on a bump or after 30 s without sensible movement.
+No official time limit was found (hospital-facts.md 1.9, 5): pico-gym's default is the 10 minutes
+of a 2019 team's requirement table.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from typing import Any, Literal
+
+import numpy as np
+
+from pico_gym.robot import RobotConfig
+from pico_gym.tasks.base import IDLE_TIME_S, Episode, GeodesicProgress, IdleRule, StepContext, StepOutcome
+from pico_gym.types import FloatArray, Pose, Segments
+from pico_gym.world import geometry
+from pico_gym.world.grid import CostGrid, Grid, clearance_grid
+from pico_gym.world.hospital import HospitalConfig, cabinets_of, generate_hospital
+from pico_gym.world.map import Map
+from pico_gym.world.scene import MoverRecord, Movers, Scene
+
+TIME_LIMIT_S = 600.0
+TERMINATION_REASONS = ("done", "bump", "idle", "false_announcement", "timeout")
+# The geodesic fields' robot: its centre keeps the footprint's half-depth (0.1 m) from walls, so a
+# 0.5 m door is crossed sideways (hospital-facts.md 3, "Checks on every episode").
+FIELD_INFLATION_M = 0.1
+# Placement margins (hospital-facts.md 3): boxes keep this far from squares, the start area, doors.
+BOX_MARGIN_M = 0.3
+
+
+@dataclass(frozen=True)
+class HospitalRewardWeights:
+    """Weights of the named reward terms; reward = sum of weight * term.
+
+    Attributes:
+        progress: per metre of decrease of the geodesic distance to the next arrival square.
+        arrival: once per cabinet counted (in order).
+        bump: per bump.
+        time: per second of simulated time.
+        false_announcement: per announcement that did not satisfy the arrival rule.
+    """
+
+    progress: float = 1.0
+    arrival: float = 10.0
+    bump: float = 10.0
+    time: float = 0.1
+    false_announcement: float = 1.0
+
+    def __post_init__(self) -> None:
+        for name in ("progress", "arrival", "bump", "time", "false_announcement"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise ValueError(f"HospitalRewardWeights.{name} must be a finite number, got {value!r}")
+
+
+@dataclass(frozen=True)
+class HospitalTaskConfig:
+    """Rules of the hospital task and the ranges of its per-episode draws.
+
+    Attributes:
+        n_cabinets: cabinets in a drawn order (at most the map's number of cabinets).
+        closed_doors: range of the number of doors drawn closed (never one that cuts the start
+            or a target off).
+        n_boxes: range of the number of unknown boxes.
+        box_side_m: range of a box's sides [m].
+        n_movers: range of the number of walking people drawn when the map has no movers.
+        arrival: "dwell" (a cabinet counts once the robot has stood in its square facing it,
+            nearly still, for `dwell_s`; the action is a twist) or "announce" (the action gets a
+            fourth component; a positive value announces, as the course's io.speak).
+        dwell_s: how long the robot must stand in the square [s].
+        dwell_speed_mps: true speed under which the robot is nearly still [m/s].
+        dwell_turn_rate_radps: true turn rate under which it is nearly still [rad/s].
+        facing_tolerance_rad: how far the heading may be from facing the front [rad].
+        false_announcement: "count" (counted and penalised) or "terminate" (also ends the episode).
+        collision: "terminate" (the first bump ends the episode) or "continue".
+        idle_time_s, idle_speed_mps, idle_turn_rate_radps: the idle rule.
+        time_limit_s: the episode is truncated at this simulated time [s].
+        start_clearance_m: minimum footprint clearance of a drawn start pose [m].
+        rewards: weights of the reward terms.
+        hospital: ranges of the hospital generator (maps drawn when no map is given).
+        geodesic_resolution_m: cell size of the geodesic fields [m].
+    """
+
+    n_cabinets: int = 3
+    closed_doors: tuple[int, int] = (0, 1)
+    n_boxes: tuple[int, int] = (0, 2)
+    box_side_m: tuple[float, float] = (0.2, 0.6)
+    n_movers: tuple[int, int] = (0, 1)
+    arrival: Literal["dwell", "announce"] = "dwell"
+    dwell_s: float = 0.5
+    dwell_speed_mps: float = 0.05
+    dwell_turn_rate_radps: float = 0.1
+    facing_tolerance_rad: float = 0.26
+    false_announcement: Literal["count", "terminate"] = "count"
+    collision: Literal["terminate", "continue"] = "terminate"
+    idle_time_s: float = IDLE_TIME_S
+    idle_speed_mps: float = 0.02
+    idle_turn_rate_radps: float = 0.05
+    time_limit_s: float = TIME_LIMIT_S
+    start_clearance_m: float = 0.05
+    rewards: HospitalRewardWeights = field(default_factory=HospitalRewardWeights)
+    hospital: HospitalConfig = field(default_factory=HospitalConfig)
+    geodesic_resolution_m: float = 0.05
+
+    def __post_init__(self) -> None:
+        if self.arrival not in ("dwell", "announce"):
+            raise ValueError(f"arrival must be 'dwell' or 'announce', got {self.arrival!r}")
+        if self.false_announcement not in ("count", "terminate"):
+            raise ValueError(f"false_announcement must be 'count' or 'terminate', got {self.false_announcement!r}")
+        if self.collision not in ("terminate", "continue"):
+            raise ValueError(f"collision must be 'terminate' or 'continue', got {self.collision!r}")
+        if not (isinstance(self.n_cabinets, int) and self.n_cabinets >= 1):
+            raise ValueError(f"n_cabinets must be an integer >= 1, got {self.n_cabinets!r}")
+        for name in ("closed_doors", "n_boxes", "n_movers"):
+            lo, hi = getattr(self, name)
+            if not (isinstance(lo, int) and isinstance(hi, int) and 0 <= lo <= hi):
+                raise ValueError(f"{name} must be a range (lo, hi) of integers with 0 <= lo <= hi, got {(lo, hi)}")
+        lo, hi = self.box_side_m
+        if not 0 < lo <= hi:
+            raise ValueError(f"box_side_m must be a range (lo, hi) with 0 < lo <= hi, got {self.box_side_m}")
+        for name in ("dwell_s", "time_limit_s", "idle_time_s", "geodesic_resolution_m"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(f"{name} must be a positive number, got {value!r}")
+        if not 0 < self.facing_tolerance_rad < math.pi:
+            raise ValueError(f"facing_tolerance_rad must be in (0, pi), got {self.facing_tolerance_rad}")
+
+    @property
+    def idle_rule(self) -> IdleRule:
+        return IdleRule(self.idle_time_s, self.idle_speed_mps, self.idle_turn_rate_radps)
+
+
+@dataclass(frozen=True, eq=False)
+class HospitalTaskSpec:
+    """What the course gave the teams, and all an agent may be given (`info["task"]` at reset).
+
+    Attributes:
+        map: the given map: walls, cabinets (fronts first, numbered by index), the start area
+            and `doors`, the door openings (indexed as `closed_doors` indexes them). It never holds
+            the episode's closed doors, boxes or movers, nor the world's unknown static obstacles.
+        cabinet_order: the cabinets to visit, in order.
+        arrival: "dwell" or "announce".
+        dwell_s: with "dwell", how long to stand still in the square.
+        facing_tolerance_rad: how far from facing the front the heading may be.
+        time_limit_s: the episode's time limit.
+        idle_time_s: the longest the robot may stand still.
+    """
+
+    map: Map
+    cabinet_order: tuple[int, ...]
+    arrival: str
+    dwell_s: float
+    facing_tolerance_rad: float
+    time_limit_s: float
+    idle_time_s: float
+
+
+def given_map(world: Map) -> Map:
+    """The map an agent is given: the world without its unknown static obstacles and movers."""
+    return replace(world, obstacles=(), movers=(), extra={k: v for k, v in world.extra.items() if k != "movers"})
+
+
+class HospitalTask:
+    """Spawning, arrivals, reward terms and termination for the hospital (a `Task`).
+
+    Reset options: `cabinet_order` (cabinet indices), `closed_doors` (door indices; [] = all
+    open), and the template's `start_pose`.
+    """
+
+    termination_reasons = TERMINATION_REASONS
+    option_keys = frozenset({"cabinet_order", "closed_doors"})
+    goal_name = "every cabinet of the order"
+
+    def __init__(self, config: HospitalTaskConfig, robot: RobotConfig, fixed_map: Map | None = None) -> None:
+        self.config = config
+        self.robot = robot
+        self.fixed_map = fixed_map
+        if fixed_map is not None:
+            where = fixed_map.source or fixed_map.name
+            if not fixed_map.cabinets:
+                raise ValueError(f"{where}: a hospital map needs 'cabinets'")
+            self._fixed_cabinets = cabinets_of(fixed_map)
+            self._fixed_grid = Grid.covering(fixed_map.bounds, config.geodesic_resolution_m, margin=0.5)
+            self._fixed_clearance: FloatArray | None = None
+        self._arrival_cost = 0.0
+        self.episode: Episode | None = None
+
+    @property
+    def idle_rule(self) -> IdleRule:
+        return self.config.idle_rule
+
+    @property
+    def time_limit_s(self) -> float:
+        return self.config.time_limit_s
+
+    @property
+    def action_extras(self) -> tuple[np.ndarray, np.ndarray]:
+        if self.config.arrival == "announce":
+            return np.array([-1.0]), np.array([1.0])
+        return np.zeros(0), np.zeros(0)
+
+    # --- reset -------------------------------------------------------------------------------
+    def new_episode(self, rng: np.random.Generator, options: dict[str, Any], start: Pose | None) -> Episode:
+        cfg = self.config
+        if self.fixed_map is None:
+            world = generate_hospital(rng, cfg.hospital, self.robot).map
+            cabinets = cabinets_of(world)
+            grid = Grid.covering(world.bounds, cfg.geodesic_resolution_m, margin=0.5)
+            base_clearance = _clearance(grid, world)
+        else:
+            world, cabinets, grid = self.fixed_map, self._fixed_cabinets, self._fixed_grid
+            if self._fixed_clearance is None:
+                self._fixed_clearance = _clearance(grid, world)
+            base_clearance = self._fixed_clearance
+        where = world.source or world.name
+        order = self._order(rng, options.get("cabinet_order"), len(cabinets), where)
+        targets = [cabinets[i] for i in order]
+        area = self._start_region(world)
+        centre = area.mean(axis=0)
+        squares = [c.square for c in targets]
+
+        def reachable(segments: Segments) -> bool:
+            costs = _costs(grid, base_clearance, segments)
+            field = costs.field_from_point(float(centre[0]), float(centre[1]))
+            return all(math.isfinite(field.lookup(*c.dock_point())) for c in targets)
+
+        closed = self._closed_doors(rng, options.get("closed_doors"), world, reachable, where)
+        door_segments = [world.door_segments[d] for d in closed]
+        movers = self._movers(rng, world, grid, base_clearance, area, squares)
+        boxes = self._boxes(rng, world, grid, base_clearance, closed, area, squares, movers, reachable)
+        scene = Scene(world, closed, tuple(boxes), Movers(movers))
+
+        extra_segments = door_segments + [geometry.polygon_to_segments(b) for b in boxes]
+        costs = _costs(grid, base_clearance, np.vstack(extra_segments) if extra_segments else np.zeros((0, 4)))
+        if start is None:
+            start = self._sample_start(rng, area, scene, where)
+        fields = [costs.field_to_region(c.square) for c in targets]
+        legs = [fields[0].lookup(start.x, start.y)]
+        for k in range(1, len(targets)):
+            legs.append(fields[k].lookup(*targets[k - 1].dock_point()))
+        shortest = float(sum(legs))
+        public = HospitalTaskSpec(
+            map=given_map(world),
+            cabinet_order=tuple(order),
+            arrival=cfg.arrival,
+            dwell_s=cfg.dwell_s,
+            facing_tolerance_rad=cfg.facing_tolerance_rad,
+            time_limit_s=cfg.time_limit_s,
+            idle_time_s=cfg.idle_time_s,
+        )
+        self._targets = targets
+        self._fields = fields
+        self._done = 0
+        self._dwell = 0.0
+        self._false = 0
+        self._progress = GeodesicProgress(fields[0], start)
+        self._arrival_parts = targets[0].arrival(start, cfg.facing_tolerance_rad)
+        self.episode = Episode(scene, start, shortest, public, {"legs": legs, "fields": fields})
+        return self.episode
+
+    def _order(self, rng: np.random.Generator, given: Any, n: int, where: Any) -> list[int]:
+        if given is None:
+            k = min(self.config.n_cabinets, n)
+            return [int(i) for i in rng.permutation(n)[:k]]
+        try:
+            order = [int(i) for i in given]
+        except (TypeError, ValueError):
+            raise ValueError(f"options['cabinet_order'] must be a list of cabinet indices, got {given!r}") from None
+        if not order:
+            raise ValueError("options['cabinet_order'] is empty: give at least one cabinet index")
+        for k, i in enumerate(order):
+            if not 0 <= i < n:
+                raise ValueError(
+                    f"options['cabinet_order'][{k}] = {i} is out of range: {where} has {n} cabinets (0..{n - 1})"
+                )
+        return order
+
+    def _closed_doors(
+        self, rng: np.random.Generator, given: Any, world: Map, reachable: Any, where: Any
+    ) -> tuple[int, ...]:
+        n = len(world.door_segments)
+        if given is not None:
+            try:
+                closed = tuple(int(d) for d in given)
+            except (TypeError, ValueError):
+                raise ValueError(f"options['closed_doors'] must be a list of door indices, got {given!r}") from None
+            for k, d in enumerate(closed):
+                if not 0 <= d < n:
+                    raise ValueError(f"options['closed_doors'][{k}] = {d} is out of range: {where} has {n} doors")
+            for d in closed:
+                if not reachable(world.door_segments[d]):
+                    raise ValueError(
+                        f"options['closed_doors']: closing door {d} of {where} cuts the start area off from a "
+                        "cabinet of the order"
+                    )
+            if closed and not reachable(np.vstack([world.door_segments[d] for d in closed])):
+                raise ValueError(
+                    f"options['closed_doors']: closing doors {list(closed)} together cuts the start area off "
+                    "from a cabinet of the order"
+                )
+            return closed
+        lo, hi = self.config.closed_doors
+        k = min(int(rng.integers(lo, hi + 1)), n)
+        for _ in range(20):
+            closed = tuple(sorted(int(d) for d in rng.permutation(n)[:k]))
+            if not closed or reachable(np.vstack([world.door_segments[d] for d in closed])):
+                return closed
+        return ()
+
+    def _start_region(self, world: Map) -> FloatArray:
+        if world.start_area:
+            return world.polygon(world.start_area[0])
+        if world.start_pose is not None:
+            x, y, _ = world.start_pose
+            return np.array([(x - 0.01, y - 0.01), (x + 0.01, y - 0.01), (x + 0.01, y + 0.01), (x - 0.01, y + 0.01)])
+        raise ValueError(f"{world.source or world.name}: a hospital map needs a 'start_area' (or 'start_pose')")
+
+    def _sample_start(self, rng: np.random.Generator, area: FloatArray, scene: Scene, where: Any) -> Pose:
+        world = scene.map
+        if world.start_pose is not None and not world.start_area:
+            return world.start_pose
+        solid = scene.solid_segments()
+        lo, hi = area.min(axis=0), area.max(axis=0)
+        for _ in range(2000):
+            x, y = rng.uniform(lo, hi)
+            pose = Pose(float(x), float(y), float(rng.uniform(-math.pi, math.pi)))
+            if not geometry.point_in_polygon(pose.x, pose.y, area):
+                continue
+            footprint = geometry.transform_points(pose, self.robot.outline)
+            if geometry.polygon_clearance(footprint, solid, self.config.start_clearance_m + 0.01) >= (
+                self.config.start_clearance_m
+            ):
+                return pose
+        raise ValueError(
+            f"{where}: found no start pose in the start area with {self.config.start_clearance_m} m clearance"
+        )
+
+    def _movers(
+        self,
+        rng: np.random.Generator,
+        world: Map,
+        grid: Grid,
+        clearance: FloatArray,
+        area: FloatArray,
+        squares: list[FloatArray],
+    ) -> list[MoverRecord]:
+        if world.movers:
+            return [m if isinstance(m, MoverRecord) else _record(m) for m in world.movers]
+        lo, hi = self.config.n_movers
+        n = int(rng.integers(lo, hi + 1))
+        out: list[MoverRecord] = []
+        for _ in range(n):
+            record = _draw_person(rng, grid, clearance, area, squares, out)
+            if record is not None:
+                out.append(record)
+        return out
+
+    def _boxes(
+        self,
+        rng: np.random.Generator,
+        world: Map,
+        grid: Grid,
+        clearance: FloatArray,
+        closed: tuple[int, ...],
+        area: FloatArray,
+        squares: list[FloatArray],
+        movers: list[MoverRecord],
+        reachable: Any,
+    ) -> list[FloatArray]:
+        lo, hi = self.config.n_boxes
+        n = int(rng.integers(lo, hi + 1))
+        if n == 0:
+            return []
+        keep_out = [area] + squares + [world.polygon(d) for d in world.doors]
+        lanes = [_mover_lane(m) for m in movers]
+        static = np.vstack(
+            [world.structure_segments, world.cabinet_segments, world.obstacle_segments, world.low_segments]
+        )
+        door_segs = [world.door_segments[d] for d in closed]
+        xs, ys = grid.centres()
+        # Candidate centres: inside the building (reachable from the start area), off the walls.
+        centre = area.mean(axis=0)
+        door_extra = np.vstack(door_segs) if door_segs else np.zeros((0, 4))
+        inside = _costs(grid, clearance, door_extra).field_from_point(float(centre[0]), float(centre[1]))
+        free = np.argwhere(np.isfinite(inside.distance) & (clearance > 0.2))
+        boxes: list[FloatArray] = []
+        for _ in range(60):
+            if len(boxes) == n:
+                break
+            r, c = free[int(rng.integers(len(free)))]
+            cx, cy = float(xs[r, c]), float(ys[r, c])
+            a, b = rng.uniform(*self.config.box_side_m, size=2)
+            yaw = float(rng.uniform(0, math.pi)) if rng.random() < 0.5 else 0.0
+            poly = _rect(cx, cy, yaw, float(a), float(b))
+            if geometry.polygon_clearance(poly, static, 0.06) < 0.05:
+                continue
+            if any(_polygon_distance(poly, k) < BOX_MARGIN_M for k in keep_out + lanes + boxes):
+                continue
+            candidate = boxes + [poly]
+            segs = door_segs + [geometry.polygon_to_segments(p) for p in candidate]
+            if not reachable(np.vstack(segs)):
+                continue
+            boxes.append(poly)
+        return boxes
+
+    # --- step --------------------------------------------------------------------------------
+    def evaluate(self, ctx: StepContext) -> StepOutcome:
+        cfg = self.config
+        w = cfg.rewards
+        pose = ctx.pose
+        target = self._targets[self._done] if self._done < len(self._targets) else None
+        arrived_now = False
+        false_now = 0
+        progress = 0.0
+        if target is not None:
+            progress = self._progress.update(pose)
+            arrived, distance, error = target.arrival(pose, cfg.facing_tolerance_rad)
+            self._arrival_parts = (arrived, distance, error)
+            if cfg.arrival == "dwell":
+                moved = math.hypot(pose.x - ctx.pose_before.x, pose.y - ctx.pose_before.y)
+                turned = abs(geometry.wrap_angle(pose.theta - ctx.pose_before.theta))
+                still = moved < cfg.dwell_speed_mps * ctx.dt_s and turned < cfg.dwell_turn_rate_radps * ctx.dt_s
+                self._dwell = self._dwell + ctx.dt_s if (arrived and still) else 0.0
+                arrived_now = self._dwell >= cfg.dwell_s - 1e-9
+            elif ctx.extras[0] > 0.0:
+                if arrived:
+                    arrived_now = True
+                else:
+                    false_now = 1
+                    self._false += 1
+            if arrived_now:
+                self._done += 1
+                self._dwell = 0.0
+                if self._done < len(self._targets):
+                    self._progress = GeodesicProgress(self._fields[self._done], pose)
+                    self._arrival_parts = self._targets[self._done].arrival(pose, cfg.facing_tolerance_rad)
+        elif cfg.arrival == "announce" and ctx.extras[0] > 0.0:
+            false_now = 1
+            self._false += 1
+        done = self._done == len(self._targets)
+        terms = {
+            "progress": w.progress * progress,
+            "arrival": w.arrival * float(arrived_now),
+            "bump": -w.bump * ctx.new_bumps,
+            "time": -w.time * ctx.dt_s,
+            "false_announcement": -w.false_announcement * false_now,
+        }
+        reason = None
+        if done:
+            reason = "done"
+        elif ctx.bumps > 0 and cfg.collision == "terminate":
+            reason = "bump"
+        elif false_now and cfg.false_announcement == "terminate":
+            reason = "false_announcement"
+        elif ctx.idle_s >= cfg.idle_time_s:
+            reason = "idle"
+        return StepOutcome(terms, reason, done)
+
+    def info(self) -> dict[str, Any]:
+        done = self._done
+        n = len(self._targets)
+        arrived, distance, error = self._arrival_parts
+        return {
+            "cabinets_done": done,
+            "next_cabinet": self._targets[done].index if done < n else None,
+            "geodesic_to_next": self._progress.value if done < n else 0.0,
+            "false_announcements": self._false,
+            "movers": self.episode.scene.mover_poses(),
+            "arrival": {"in_square": distance == 0.0, "distance_to_square": distance, "heading_error": error}
+            if done < n
+            else None,
+            "dwell_s": self._dwell,
+        }
+
+    def marks(self) -> dict[str, Any]:
+        """For the renderer: the arrival squares of the order, numbered, done ones flagged."""
+        squares = []
+        for k, cab in enumerate(self._targets):
+            squares.append((cab.square, str(k + 1), k < self._done))
+        return {"squares": squares, "status": f"cabinets {self._done}/{len(self._targets)}"}
+
+
+def _record(data: Any) -> MoverRecord:
+    from pico_gym.world.scene import mover_record
+
+    return mover_record(data, "movers")
+
+
+def _clearance(grid: Grid, world: Map) -> FloatArray:
+    """Clearance of every cell to the world's static geometry (walls, cabinets, obstacles)."""
+    static = np.vstack([world.structure_segments, world.cabinet_segments, world.obstacle_segments, world.low_segments])
+    return clearance_grid(grid, static, cap=0.5)
+
+
+def _costs(grid: Grid, base_clearance: FloatArray, extra: Segments) -> CostGrid:
+    """The cost grid of the static world plus extra segments (closed doors, boxes)."""
+    clearance = base_clearance
+    if len(extra):
+        clearance = np.minimum(base_clearance, clearance_grid(grid, extra, cap=0.5))
+    return CostGrid.from_clearance(grid, clearance, inflation_m=FIELD_INFLATION_M)
+
+
+def _rect(cx: float, cy: float, yaw: float, a: float, b: float) -> FloatArray:
+    c, s = math.cos(yaw), math.sin(yaw)
+    local = np.array([(a / 2, -b / 2), (a / 2, b / 2), (-a / 2, b / 2), (-a / 2, -b / 2)])
+    return np.column_stack([cx + c * local[:, 0] - s * local[:, 1], cy + s * local[:, 0] + c * local[:, 1]])
+
+
+def _polygon_distance(p: FloatArray, q: FloatArray) -> float:
+    """Distance between two polygons (0 if they overlap)."""
+    if geometry.point_in_polygon(p[0, 0], p[0, 1], q) or geometry.point_in_polygon(q[0, 0], q[0, 1], p):
+        return 0.0
+    return float(geometry.polygon_clearance(p, geometry.polygon_to_segments(q)))
+
+
+def _mover_lane(m: MoverRecord) -> FloatArray:
+    """The rectangle a mover sweeps between its two poses."""
+    (x0, y0, yaw), (x1, y1, _) = m.init_pose, m.final_pose
+    corners = np.vstack([_rect(x0, y0, yaw, m.length, m.width), _rect(x1, y1, yaw, m.length, m.width)])
+    lo, hi = corners.min(axis=0), corners.max(axis=0)
+    return np.array([(lo[0], lo[1]), (hi[0], lo[1]), (hi[0], hi[1]), (lo[0], hi[1])])
+
+
+# The walking person of the 2021 config (hospital-facts.md 1.6): 0.2 x 0.4 m at 0.5 m/s, ping-pong.
+PERSON_LENGTH_M, PERSON_WIDTH_M, PERSON_SPEED_MPS = 0.2, 0.4, 0.5
+
+
+def _draw_person(
+    rng: np.random.Generator,
+    grid: Grid,
+    clearance: FloatArray,
+    area: FloatArray,
+    squares: list[FloatArray],
+    others: list[MoverRecord],
+) -> MoverRecord | None:
+    """A walking person on a straight 2-6 m path along a grid axis with wall clearance >= half its
+    width + 0.15 m, away from the start area and the arrival squares (hospital-facts.md 3)."""
+    need = 0.5 * PERSON_WIDTH_M + 0.15
+    res = grid.resolution
+    xs, ys = grid.centres()
+    candidates = np.argwhere(clearance >= need + 0.05)
+    if len(candidates) == 0:
+        return None
+    keep_out = [area] + squares + [_mover_lane(o) for o in others]
+    for _ in range(40):
+        r, c = candidates[int(rng.integers(len(candidates)))]
+        horizontal = bool(rng.random() < 0.5)
+        line = clearance[r, :] if horizontal else clearance[:, c]
+        i = c if horizontal else r
+        lo = i
+        while lo > 0 and line[lo - 1] >= need:
+            lo -= 1
+        hi = i
+        while hi < len(line) - 1 and line[hi + 1] >= need:
+            hi += 1
+        free_m = (hi - lo) * res - PERSON_LENGTH_M
+        if free_m < 2.0:
+            continue
+        length = float(rng.uniform(2.0, min(6.0, free_m)))
+        offset = float(rng.uniform(0.0, free_m - length))
+        a = (lo * res) + 0.5 * PERSON_LENGTH_M + offset
+        if horizontal:
+            x0 = grid.x0 + (0.5 + lo) * res + 0.5 * PERSON_LENGTH_M + offset
+            y = float(ys[r, c])
+            init, final, yaw = (x0, y), (x0 + length, y), 0.0
+        else:
+            y0 = grid.y0 + (0.5 + lo) * res + 0.5 * PERSON_LENGTH_M + offset
+            x = float(xs[r, c])
+            init, final, yaw = (x, y0), (x, y0 + length), math.pi / 2
+        del a
+        if rng.random() < 0.5:
+            init, final = final, init
+        record = MoverRecord(
+            length=PERSON_LENGTH_M,
+            width=PERSON_WIDTH_M,
+            trigger_radius=float(rng.uniform(2.0, 10.0)),
+            velocity=PERSON_SPEED_MPS,
+            init_pose=(init[0], init[1], yaw),
+            final_pose=(final[0], final[1], yaw),
+            repeat=True,
+        )
+        lane = _mover_lane(record)
+        if any(_polygon_distance(lane, k) < 0.3 + record.half_diagonal_m for k in keep_out):
+            continue
+        return record
+    return None

@@ -1,0 +1,234 @@
+"""Moving objects ("walking people"), exactly as the course simulator moves them.
+
+emc_simulator src/moving_object.cpp and src/main.cpp (hospital-facts.md 1.6): a box of `length` x
+`width` keeping its initial yaw, travelling straight from `init_pose` to `final_pose` at
+`velocity`; it starts (once) when the robot's origin comes within `trigger_radius` of its centre,
+pauses while the centre distance is below r_pause = hypot(w/2, l/2) + 0.3 m, stops within 0.1 m of
+`final_pose`, or with `repeat` swaps the two poses and goes back (ping-pong). The simulator does not
+stop them at walls; a standing robot is never hit (contact needs a centre distance of at most the
+half-diagonal plus the robot's circumradius, 0.224 m, which is less than r_pause).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from pico_gym.jit import njit
+from pico_gym.types import FloatArray, Segments
+
+# emc_simulator moving_object.cpp: a paused object resumes when the robot is farther than its
+# half-diagonal plus this margin; a non-repeating object stops within this distance of its goal.
+MOVER_PAUSE_MARGIN_M = 0.3
+MOVER_ARRIVE_M = 0.1
+MOVER_RECORD_KEYS = ("length", "width", "trigger_radius", "velocity", "init_pose", "final_pose", "repeat")
+
+
+@dataclass(frozen=True)
+class MoverRecord:
+    """A course moving-object record (emc_simulator config format), in the map frame.
+
+    Attributes:
+        length: extent along the object's own x [m].
+        width: extent along its y [m].
+        trigger_radius: it starts when the robot comes this close to its centre [m].
+        velocity: its speed [m/s].
+        init_pose: (x, y, yaw) where it stands at the start.
+        final_pose: (x, y, yaw) where it goes (its yaw stays the initial one).
+        repeat: ping-pong between the two poses instead of stopping.
+    """
+
+    length: float
+    width: float
+    trigger_radius: float
+    velocity: float
+    init_pose: tuple[float, float, float]
+    final_pose: tuple[float, float, float]
+    repeat: bool = False
+
+    def __post_init__(self) -> None:
+        for name in ("length", "width", "velocity"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                raise ValueError(f"{name} must be a positive number, got {value!r}")
+        if not (math.isfinite(self.trigger_radius) and self.trigger_radius >= 0):
+            raise ValueError(f"trigger_radius must be a number >= 0, got {self.trigger_radius!r}")
+
+    @property
+    def pause_radius_m(self) -> float:
+        """The robot's centre distance under which the object waits."""
+        return math.hypot(0.5 * self.width, 0.5 * self.length) + MOVER_PAUSE_MARGIN_M
+
+    @property
+    def half_diagonal_m(self) -> float:
+        return math.hypot(0.5 * self.width, 0.5 * self.length)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "length": self.length,
+            "width": self.width,
+            "trigger_radius": self.trigger_radius,
+            "velocity": self.velocity,
+            "init_pose": list(self.init_pose),
+            "final_pose": list(self.final_pose),
+            "repeat": self.repeat,
+        }
+
+
+def mover_record(data: Any, where: str) -> MoverRecord:
+    """A `MoverRecord` from a course record (dict); ValueError naming `where` and the key."""
+    if not isinstance(data, dict):
+        raise ValueError(f"{where}: expected an object with keys {', '.join(MOVER_RECORD_KEYS)}, got {data!r}")
+    for key in MOVER_RECORD_KEYS:
+        if key not in data:
+            raise ValueError(f"{where}: missing key '{key}'")
+
+    def number(key: str) -> float:
+        v = data[key]
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            raise ValueError(f"{where}.{key}: expected a finite number, got {v!r}")
+        return float(v)
+
+    def pose(key: str) -> tuple[float, float, float]:
+        v = data[key]
+        if not (isinstance(v, list) and len(v) == 3 and all(isinstance(a, (int, float)) for a in v)):
+            raise ValueError(f"{where}.{key}: expected [x, y, yaw], got {v!r}")
+        if not all(math.isfinite(a) for a in v):
+            raise ValueError(f"{where}.{key}: expected finite numbers, got {v!r}")
+        return float(v[0]), float(v[1]), float(v[2])
+
+    values = {k: number(k) for k in ("length", "width", "trigger_radius", "velocity")}
+    for k in ("length", "width", "velocity"):
+        if values[k] <= 0:
+            raise ValueError(f"{where}.{k}: must be positive, got {values[k]}")
+    if values["trigger_radius"] < 0:
+        raise ValueError(f"{where}.trigger_radius: must be >= 0, got {values['trigger_radius']}")
+    if not isinstance(data["repeat"], bool):
+        raise ValueError(f"{where}.repeat: expected true or false, got {data['repeat']!r}")
+    return MoverRecord(init_pose=pose("init_pose"), final_pose=pose("final_pose"), repeat=data["repeat"], **values)
+
+
+def box_corners(x: float, y: float, yaw: float, length: float, width: float) -> FloatArray:
+    """(4, 2) corners of a length x width box centred at (x, y), its length along yaw."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    hl, hw = 0.5 * length, 0.5 * width
+    local = np.array([(hl, -hw), (hl, hw), (-hl, hw), (-hl, -hw)])
+    return np.column_stack([x + c * local[:, 0] - s * local[:, 1], y + s * local[:, 0] + c * local[:, 1]])
+
+
+# State columns of `Movers.state`.
+_X, _Y, _YAW, _GX, _GY, _OX, _OY, _TRIGGERED, _PAUSED, _FINISHED = range(10)
+# Parameter columns of `Movers.params`.
+_LENGTH, _WIDTH, _TRIGGER, _SPEED, _PAUSE, _REPEAT = range(6)
+
+
+@njit
+def _advance(state: FloatArray, params: FloatArray, robot_xy: FloatArray, h: float) -> None:
+    """Run every mover through one sub-step of `h` seconds per row of robot positions."""
+    for k in range(robot_xy.shape[0]):
+        rx, ry = robot_xy[k, 0], robot_xy[k, 1]
+        for i in range(state.shape[0]):
+            if state[i, _FINISHED] != 0.0:
+                continue
+            distance = math.hypot(rx - state[i, _X], ry - state[i, _Y])
+            if state[i, _TRIGGERED] == 0.0:
+                if distance >= params[i, _TRIGGER]:
+                    continue
+                state[i, _TRIGGERED] = 1.0
+            if distance < params[i, _PAUSE]:
+                state[i, _PAUSED] = 1.0
+                continue
+            state[i, _PAUSED] = 0.0
+            dx = state[i, _GX] - state[i, _X]
+            dy = state[i, _GY] - state[i, _Y]
+            remaining = math.hypot(dx, dy)
+            if remaining <= MOVER_ARRIVE_M:
+                if params[i, _REPEAT] != 0.0:
+                    gx, gy = state[i, _GX], state[i, _GY]
+                    state[i, _GX], state[i, _GY] = state[i, _OX], state[i, _OY]
+                    state[i, _OX], state[i, _OY] = gx, gy
+                    dx = state[i, _GX] - state[i, _X]
+                    dy = state[i, _GY] - state[i, _Y]
+                    remaining = math.hypot(dx, dy)
+                else:
+                    state[i, _FINISHED] = 1.0
+                    continue
+            if remaining <= 0.0:
+                continue
+            step = min(params[i, _SPEED] * h, remaining)
+            state[i, _X] += dx / remaining * step
+            state[i, _Y] += dy / remaining * step
+
+
+@njit
+def _write_segments(state: FloatArray, params: FloatArray, out: Segments) -> None:
+    for i in range(state.shape[0]):
+        c, s = math.cos(state[i, _YAW]), math.sin(state[i, _YAW])
+        hl, hw = 0.5 * params[i, _LENGTH], 0.5 * params[i, _WIDTH]
+        x, y = state[i, _X], state[i, _Y]
+        for k in range(4):
+            lx = hl if k < 2 else -hl
+            ly = -hw if k == 0 or k == 3 else hw
+            k2 = (k + 1) % 4
+            lx2 = hl if k2 < 2 else -hl
+            ly2 = -hw if k2 == 0 or k2 == 3 else hw
+            out[4 * i + k, 0] = x + c * lx - s * ly
+            out[4 * i + k, 1] = y + s * lx + c * ly
+            out[4 * i + k, 2] = x + c * lx2 - s * ly2
+            out[4 * i + k, 3] = y + s * lx2 + c * ly2
+
+
+class Movers:
+    """The moving objects of an episode and their state (the module docstring's rules).
+
+    The state lives in arrays stepped by one compiled kernel, so many sub-steps of many movers
+    cost one call.
+    """
+
+    def __init__(self, records: list[MoverRecord] | tuple[MoverRecord, ...]) -> None:
+        self.records = tuple(records)
+        n = len(self.records)
+        self.state = np.zeros((n, 10))
+        self.params = np.zeros((n, 6))
+        for i, rec in enumerate(self.records):
+            x, y, yaw = rec.init_pose
+            self.state[i, :7] = (x, y, yaw, rec.final_pose[0], rec.final_pose[1], x, y)
+            self.params[i] = (rec.length, rec.width, rec.trigger_radius, rec.velocity, rec.pause_radius_m, rec.repeat)
+        self.max_speed_mps = max((r.velocity for r in self.records), default=0.0)
+
+    def __len__(self) -> int:
+        return len(self.records)
+
+    def advance(self, duration_s: float, robot_x: float, robot_y: float) -> None:
+        """One physics sub-step of `duration_s` with the robot at (robot_x, robot_y)."""
+        if len(self.records):
+            _advance(self.state, self.params, np.array([[robot_x, robot_y]]), duration_s)
+
+    def advance_along(self, duration_s: float, robot_xy: FloatArray) -> None:
+        """Sub-steps of `duration_s`, one per row of robot positions (k, 2)."""
+        if len(self.records):
+            _advance(self.state, self.params, np.ascontiguousarray(robot_xy, dtype=np.float64), duration_s)
+
+    def poses(self) -> FloatArray:
+        """(n, 3) true poses (x, y, yaw)."""
+        return self.state[:, :3].copy()
+
+    def positions(self) -> FloatArray:
+        return self.state[:, :2]
+
+    def write_segments(self, out: Segments) -> None:
+        """Write every box's 4 edges into out ((4 n, 4))."""
+        if len(self.records):
+            _write_segments(self.state, self.params, out)
+
+    def triggered(self, i: int) -> bool:
+        return bool(self.state[i, _TRIGGERED])
+
+    def paused(self, i: int) -> bool:
+        return bool(self.state[i, _PAUSED])
+
+    def finished(self, i: int) -> bool:
+        return bool(self.state[i, _FINISHED])
