@@ -33,6 +33,18 @@ def make_agent(name: str, env: gym.Env, **kwargs: Any) -> Agent:
         ValueError: for an unknown name, listing the known ones.
     """
     spec = RobotSpec.of(env)
+    env_spec = env.unwrapped.spec
+    env_id = env_spec.id if env_spec is not None else type(env.unwrapped).__name__
+    if name in ("classic", "ppo") and env_id != "PicoEscape-v0":
+        raise ValueError(
+            f"the {name} agent plays PicoEscape-v0 only so far (the hospital agents are still to come); "
+            f"on {env_id} use: wall-follow, random"
+        )
+    if env.action_space.shape != (3,):
+        raise ValueError(
+            f"pico-gym's agents act with a twist (vx, vy, w); {env_id} here takes {env.action_space.shape[0]} "
+            "action components (arrival='announce'): use arrival='dwell'"
+        )
     if name == "classic":
         from pico_gym.agents.classic.agent import ClassicAgent
 

@@ -20,9 +20,9 @@ from pico_gym.agents import AGENTS
 from pico_gym.extras import require
 
 
-def _set_option(key: str, text: str) -> Any:
+def _set_option(key: str, text: str, env_id: str) -> Any:
     """The value of `--set KEY=TEXT`, checked against the env config's field of that name."""
-    fields = _config_fields()
+    fields = _config_fields(env_id)
     if key not in fields:
         close = difflib.get_close_matches(key, fields, n=3)
         hint = f" (did you mean {', '.join(close)}?)" if close else ""
@@ -75,7 +75,7 @@ def _env_options(args: argparse.Namespace) -> dict[str, Any]:
         key, _, value = item.partition("=")
         if not key or not value:
             raise ValueError(f"--set takes KEY=VALUE, got {item!r}")
-        options[key] = _set_option(key, value)
+        options[key] = _set_option(key, value, args.env)
     return options
 
 
@@ -88,7 +88,14 @@ def _has_display() -> bool:
     return True
 
 
+def _add_env(p: argparse.ArgumentParser) -> None:
+    import pico_gym
+
+    p.add_argument("--env", default="PicoEscape-v0", choices=pico_gym.ENV_IDS, help="the environment id")
+
+
 def _common(p: argparse.ArgumentParser) -> None:
+    _add_env(p)
     p.add_argument("--agent", choices=AGENTS, default="classic", help="the agent")
     where = p.add_mutually_exclusive_group()
     where.add_argument("--map", help="a shipped map (default: generated rooms)")
@@ -127,7 +134,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         require("moviepy", "video", "--video")
     want_frames = bool(args.gif or args.video or args.png)
     mode = "human" if args.render == "human" else ("rgb_array" if want_frames else None)
-    env = gym.make("PicoEscape-v0", render_mode=mode, **_env_options(args))
+    env = gym.make(args.env, render_mode=mode, **_env_options(args))
     agent = make_agent(args.agent, env, **_agent_kwargs(args, args.agent))
     env.unwrapped.set_overlay(agent.overlay)
     frames: list[Any] = []
@@ -173,12 +180,14 @@ def cmd_bench(args: argparse.Namespace) -> int:
     seeds = range(args.seed, args.seed + args.episodes)
     with tqdm(total=args.episodes, desc=f"{args.agent}", unit="ep", file=sys.stderr, disable=args.quiet) as bar:
         records = run_episodes(
-            args.agent, seeds, options, _agent_kwargs(args, args.agent), args.workers, progress=bar.update
+            args.agent, seeds, options, _agent_kwargs(args, args.agent), args.workers, bar.update, args.env
         )
     summary = summarize(records)
     print(format_summary(args.agent, summary))
     last = args.seed + args.episodes - 1
-    print(f"  env options              {options or '(defaults: generated rooms)'}; seeds {args.seed}..{last}")
+    print(
+        f"  env                      {args.env} {options or '(defaults: generated worlds)'}; seeds {args.seed}..{last}"
+    )
     failures = [r for r in records if not r.success]
     if failures:
         shown = ", ".join(f"{r.seed}:{r.termination_reason}" for r in failures[:20])
@@ -186,6 +195,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
     if args.json:
         payload = {
             "agent": args.agent,
+            "env_id": args.env,
             "env_options": options,
             "seeds": [args.seed, args.seed + args.episodes - 1],
             "summary": summary.to_dict(),
@@ -227,14 +237,14 @@ def cmd_compare(args: argparse.Namespace) -> int:
     if unknown or not agents:
         print(f"pico-gym compare: unknown agent(s) {unknown}; agents: {', '.join(AGENTS)}", file=sys.stderr)
         return 2
-    episodes = Episodes.suite(args.suite, args.episodes, args.seed, _env_options(args))
+    episodes = Episodes.suite(args.suite, args.episodes, args.seed, _env_options(args), args.env)
     total = len(agents) * sum(len(seeds) for _, seeds in episodes.groups)
     kwargs = {a: _agent_kwargs(args, a) for a in agents}
     with tqdm(total=total, desc="compare", unit="ep", file=sys.stderr, disable=args.quiet) as bar:
         summaries = compare(agents, episodes, args.out, kwargs, args.workers, args.trajectories, bar.update)
     print(markdown_table(summaries))
     print(
-        f"wrote {args.out}/results.md, results.json, results.csv, escape_times.png, success_bumps.png"
+        f"wrote {args.out}/results.md, results.json, results.csv, success_times.png, success_bumps.png"
         + (", trajectories.png" if args.trajectories else "")
     )
     return 0
@@ -242,6 +252,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
 def add_compare(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("compare", help="run several agents on the same episodes; table, JSON, CSV and plots")
+    _add_env(p)
     p.add_argument("--agents", default="classic,ppo,wall-follow,random", help="comma-separated agent names")
     p.add_argument("--episodes", type=int, default=50, help="episodes per suite part (rooms, or starts per map)")
     p.add_argument("--seed", type=int, default=1000, help="first seed (PPO trains on seeds >= 1,000,000)")

@@ -7,7 +7,7 @@ PPO's training seeds (>= 1,000,000) and its evaluation seeds (900,000..). Writes
     results.md    the table (also printed)
     results.json  settings, a summary per agent, one record per episode (as `pico-gym bench`)
     results.csv   one row per episode
-    escape_times.png, success_bumps.png, trajectories.png
+    success_times.png, success_bumps.png, trajectories.png
 
 Everything but the measured compute time per step (`act_ms`) is a deterministic function of the
 seeds: the same command gives the same numbers.
@@ -28,7 +28,14 @@ import numpy as np
 
 import pico_gym  # noqa: F401
 from pico_gym.agents import make_agent
-from pico_gym.agents.evaluation import EpisodeRecord, Summary, run_episode, run_episodes, summarize
+from pico_gym.agents.evaluation import (
+    DEFAULT_ENV_ID,
+    EpisodeRecord,
+    Summary,
+    run_episode,
+    run_episodes,
+    summarize,
+)
 from pico_gym.extras import require
 from pico_gym.world.catalog import shipped_maps
 
@@ -42,16 +49,29 @@ def escape_maps() -> list[str]:
     return sorted(name for name in shipped_maps() if name.startswith("escape"))
 
 
+def task_maps(env_id: str) -> list[str]:
+    """The shipped maps of an env's task (escape rooms, or hospitals)."""
+    prefix = "hospital" if "Hospital" in env_id else "escape"
+    return sorted(name for name in shipped_maps() if name.startswith(prefix))
+
+
 @dataclass(frozen=True)
 class Episodes:
     """Which episodes to run: (map or None for generated rooms, seeds)."""
 
     groups: tuple[tuple[str | None, tuple[int, ...]], ...]
     env_options: dict[str, Any] = field(default_factory=dict)
+    env_id: str = DEFAULT_ENV_ID
 
     @staticmethod
-    def suite(name: str, episodes: int, seed: int, env_options: dict[str, Any] | None = None) -> Episodes:
-        """`episodes` generated rooms and/or `episodes` start poses on each shipped escape map."""
+    def suite(
+        name: str,
+        episodes: int,
+        seed: int,
+        env_options: dict[str, Any] | None = None,
+        env_id: str = DEFAULT_ENV_ID,
+    ) -> Episodes:
+        """`episodes` generated worlds and/or `episodes` starts on each shipped map of the env's task."""
         if name not in SUITES:
             raise ValueError(f"suite must be one of {SUITES}, got {name!r}")
         seeds = tuple(range(seed, seed + episodes))
@@ -59,13 +79,15 @@ class Episodes:
         if name in ("generated", "all"):
             groups.append((None, seeds))
         if name in ("maps", "all"):
-            groups += [(m, seeds) for m in escape_maps()]
-        return Episodes(tuple(groups), dict(env_options or {}))
+            groups += [(m, seeds) for m in task_maps(env_id)]
+        return Episodes(tuple(groups), dict(env_options or {}), env_id)
 
     def env_kwargs(self, map_name: str | None) -> dict[str, Any]:
         if map_name is None:
             return dict(self.env_options)
-        return {**self.env_options, "map": map_name, "sample_start": True}
+        if self.env_id == "PicoEscape-v0":
+            return {**self.env_options, "map": map_name, "sample_start": True}
+        return {**self.env_options, "map": map_name}
 
 
 def run_comparison(
@@ -82,7 +104,7 @@ def run_comparison(
         records: list[EpisodeRecord] = []
         for map_name, seeds in episodes.groups:
             records += run_episodes(
-                name, seeds, episodes.env_kwargs(map_name), agent_kwargs.get(name), workers, progress
+                name, seeds, episodes.env_kwargs(map_name), agent_kwargs.get(name), workers, progress, episodes.env_id
             )
         results[name] = records
     return results
@@ -94,8 +116,8 @@ COLUMNS = [
     ("bumps", lambda s: f"{100 * s.bump_rate:.1f} %"),
     ("idle", lambda s: f"{s.idle}"),
     ("timeout", lambda s: f"{s.timeout}"),
-    ("escape time median", lambda s: _seconds(s.escape_time_median_s)),
-    ("escape time p90", lambda s: _seconds(s.escape_time_p90_s)),
+    ("time median", lambda s: _seconds(s.time_median_s)),
+    ("time p90", lambda s: _seconds(s.time_p90_s)),
     ("SPL", lambda s: f"{s.spl:.3f}"),
     ("SCT median", lambda s: f"{s.sct_median:.3f}"),
     ("mean min clearance", lambda s: f"{s.min_clearance_mean:.3f} m"),
@@ -128,7 +150,7 @@ def write_results(out: Path, results: dict[str, list[EpisodeRecord]], settings: 
         "",
         table,
         "",
-        "![escape times](escape_times.png) ![success and bumps](success_bumps.png)",
+        "![escape times](success_times.png) ![success and bumps](success_bumps.png)",
         "",
         "![trajectories](trajectories.png)",
         "",
@@ -176,11 +198,11 @@ def plot_results(out: Path, results: dict[str, list[EpisodeRecord]], summaries: 
             jitter = np.linspace(-0.15, 0.15, len(times[i]))
             ax.scatter(i + jitter, times[i], s=6, alpha=0.4, color=COLOURS.get(names[i], "C4"))
     ax.set_xticks(range(len(names)), [f"{n}\n({len(t)} escapes)" for n, t in zip(names, times, strict=True)])
-    ax.set_ylabel("escape time [s]")
+    ax.set_ylabel("time to success [s]")
     ax.set_title("Escape time (successful episodes)")
     ax.grid(axis="y", alpha=0.3)
     fig.tight_layout()
-    fig.savefig(out / "escape_times.png")
+    fig.savefig(out / "success_times.png")
     plt.close(fig)
 
     fig, ax = plt.subplots(figsize=(7, 3.5), dpi=110)
@@ -200,7 +222,7 @@ def plot_results(out: Path, results: dict[str, list[EpisodeRecord]], summaries: 
     fig.tight_layout()
     fig.savefig(out / "success_bumps.png")
     plt.close(fig)
-    return [out / "escape_times.png", out / "success_bumps.png"]
+    return [out / "success_times.png", out / "success_bumps.png"]
 
 
 def plot_trajectories(
@@ -224,19 +246,19 @@ def plot_trajectories(
     for ax in axes.flat[len(picks) :]:
         ax.axis("off")
     for ax, (map_name, seed) in zip(axes.flat, picks, strict=False):
-        env = gym.make("PicoEscape-v0", **episodes.env_kwargs(map_name))
+        env = gym.make(episodes.env_id, **episodes.env_kwargs(map_name))
         world = None
         for name in agents:
             agent = make_agent(name, env, **agent_kwargs.get(name, {}))
             record = run_episode(env, agent, seed, name)
             world = env.unwrapped.episode.map
             path = np.array([(p.x, p.y) for p in env.unwrapped.trajectory])
-            label = f"{name}: {'escaped' if record.success else record.termination_reason} {record.time_s:.0f} s"
+            label = f"{name}: {record.termination_reason} {record.time_s:.0f} s"
             ax.plot(path[:, 0], path[:, 1], lw=1.4, color=COLOURS.get(name, "C4"), label=label)
             if record.bumps:
                 ax.plot(*path[-1], "x", color="red", ms=8, mew=2)
         assert world is not None
-        for x0, y0, x1, y1 in world.seen_segments():
+        for x0, y0, x1, y1 in env.unwrapped.scene.static_seen:
             ax.plot([x0, x1], [y0, y1], color="black", lw=1.5)
         if world.finish is not None:
             f = np.asarray(world.finish)
@@ -272,7 +294,7 @@ def compare(
     require("matplotlib", "plots", "pico-gym compare's plots")
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    probe = gym.make("PicoEscape-v0", **episodes.env_kwargs(episodes.groups[0][0]))
+    probe = gym.make(episodes.env_id, **episodes.env_kwargs(episodes.groups[0][0]))
     for name in agents:
         make_agent(name, probe, **(agent_kwargs or {}).get(name, {}))
     probe.close()
@@ -280,6 +302,7 @@ def compare(
     settings = {
         "agents": list(agents),
         "agent_kwargs": {k: {kk: str(vv) for kk, vv in v.items()} for k, v in (agent_kwargs or {}).items()},
+        "env_id": episodes.env_id,
         "env_options": episodes.env_options,
         "episodes": [{"map": m, "seeds": list(s)} for m, s in episodes.groups],
     }

@@ -93,9 +93,12 @@ def run_episode(
     )
 
 
-def _worker(job: tuple[str, dict[str, Any], dict[str, Any], list[int]]) -> list[EpisodeRecord]:
-    agent_name, env_kwargs, agent_kwargs, seeds = job
-    env = gym.make("PicoEscape-v0", **env_kwargs)
+DEFAULT_ENV_ID = "PicoEscape-v0"
+
+
+def _worker(job: tuple[str, str, dict[str, Any], dict[str, Any], list[int]]) -> list[EpisodeRecord]:
+    env_id, agent_name, env_kwargs, agent_kwargs, seeds = job
+    env = gym.make(env_id, **env_kwargs)
     agent = make_agent(agent_name, env, **agent_kwargs)
     return [run_episode(env, agent, seed, agent_name) for seed in seeds]
 
@@ -107,21 +110,23 @@ def run_episodes(
     agent_kwargs: dict[str, Any] | None = None,
     workers: int | None = None,
     progress: Callable[[int], None] | None = None,
+    env_id: str = DEFAULT_ENV_ID,
 ) -> list[EpisodeRecord]:
-    """Run an agent on seeded episodes, in parallel over the machine's cores; records in seed order."""
+    """Run an agent on seeded episodes of `env_id`, in parallel over the machine's cores; records in
+    seed order."""
     seeds = list(seeds)
     env_kwargs = env_kwargs or {}
     agent_kwargs = agent_kwargs or {}
     workers = max(1, min(workers or os.cpu_count() or 1, len(seeds)))
     # Small chunks keep the cores busy and the progress bar moving.
     chunk = max(1, min(10, len(seeds) // (4 * workers) or 1))
-    jobs = [(agent_name, env_kwargs, agent_kwargs, seeds[i : i + chunk]) for i in range(0, len(seeds), chunk)]
+    jobs = [(env_id, agent_name, env_kwargs, agent_kwargs, seeds[i : i + chunk]) for i in range(0, len(seeds), chunk)]
     records: list[EpisodeRecord] = []
     if workers == 1:
         for job in jobs:
             records += _worker(job)
             if progress:
-                progress(len(job[3]))
+                progress(len(job[4]))
     else:
         with ProcessPoolExecutor(workers) as pool:
             for result in pool.map(_worker, jobs):
@@ -140,8 +145,8 @@ class Summary:
     bump_rate: float
     idle: int
     timeout: int
-    escape_time_median_s: float
-    escape_time_p90_s: float
+    time_median_s: float
+    time_p90_s: float
     spl: float
     sct_mean: float
     sct_median: float
@@ -153,7 +158,7 @@ class Summary:
 
 
 def summarize(records: list[EpisodeRecord]) -> Summary:
-    """Success and bump rates (fraction of episodes), escape times over successes, SPL, SCT."""
+    """Success and bump rates (fraction of episodes), times of the successful episodes, SPL, SCT."""
     n = len(records)
     times = [r.time_s for r in records if r.success]
     return Summary(
@@ -162,8 +167,8 @@ def summarize(records: list[EpisodeRecord]) -> Summary:
         bump_rate=sum(r.bumps > 0 for r in records) / n,
         idle=sum(r.termination_reason == "idle" for r in records),
         timeout=sum(r.termination_reason == "timeout" for r in records),
-        escape_time_median_s=float(np.median(times)) if times else math.nan,
-        escape_time_p90_s=float(np.percentile(times, 90)) if times else math.nan,
+        time_median_s=float(np.median(times)) if times else math.nan,
+        time_p90_s=float(np.percentile(times, 90)) if times else math.nan,
         spl=float(np.mean([r.spl for r in records])),
         sct_mean=float(np.mean([r.sct for r in records])),
         sct_median=float(np.median([r.sct for r in records])),
@@ -179,7 +184,7 @@ def format_summary(name: str, s: Summary) -> str:
         ("success rate", f"{100 * s.success_rate:.1f} %"),
         ("bump rate", f"{100 * s.bump_rate:.1f} %"),
         ("idle / timeout", f"{s.idle} / {s.timeout}"),
-        ("escape time median / p90", f"{s.escape_time_median_s:.1f} s / {s.escape_time_p90_s:.1f} s"),
+        ("time median / p90 (successes)", f"{s.time_median_s:.1f} s / {s.time_p90_s:.1f} s"),
         ("SPL", f"{s.spl:.3f}"),
         ("SCT mean / median", f"{s.sct_mean:.3f} / {s.sct_median:.3f}"),
         ("mean min clearance", f"{s.min_clearance_mean:.3f} m"),

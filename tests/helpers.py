@@ -25,8 +25,8 @@ SUMMARY_FIELDS = {
     "bump_rate",
     "idle",
     "timeout",
-    "escape_time_median_s",
-    "escape_time_p90_s",
+    "time_median_s",
+    "time_p90_s",
     "spl",
     "sct_median",
 }

@@ -129,7 +129,7 @@ def test_bench_json_has_the_documented_fields(tmp_path: Path, capsys: pytest.Cap
         "success rate",
         "bump rate",
         "idle / timeout",
-        "escape time median / p90",
+        "time median / p90 (successes)",
         "SPL",
         "SCT",
         "mean min clearance",

@@ -214,7 +214,7 @@ def _callbacks() -> Any:
             self.logger.record("escape/timeout_rate", float(np.mean([r == "timeout" for *_, r in eps])))
             self.logger.record("escape/idle_rate", float(np.mean([r == "idle" for *_, r in eps])))
             if times:
-                self.logger.record("escape/escape_time_median_s", float(np.median(times)))
+                self.logger.record("escape/time_median_s", float(np.median(times)))
 
     class PeriodicEval(BaseCallback):
         """Every `freq` env steps: the deterministic policy on fixed evaluation seeds; keeps the best."""
@@ -252,11 +252,11 @@ def _callbacks() -> Any:
                 "bump_rate": s.bump_rate,
                 "timeout": s.timeout,
                 "idle": s.idle,
-                "escape_time_median_s": s.escape_time_median_s,
+                "time_median_s": s.time_median_s,
                 "sct_median": s.sct_median,
                 "score": score,
             }
-            for key in ("success_rate", "bump_rate", "escape_time_median_s", "sct_median"):
+            for key in ("success_rate", "bump_rate", "time_median_s", "sct_median"):
                 self.logger.record(f"eval/{key}", row[key])
             new = not self.csv.exists()
             with self.csv.open("a", newline="") as f:

@@ -40,7 +40,7 @@ def _evaluate(path: Path, seeds: range, env_kwargs: dict[str, Any]) -> tuple[Sum
 def _row(name: str, s: Summary) -> str:
     return (
         f"| {name} | {s.episodes} | {100 * s.success_rate:.1f} % | {100 * s.bump_rate:.1f} % | {s.idle} / "
-        f"{s.timeout} | {s.escape_time_median_s:.1f} s / {s.escape_time_p90_s:.1f} s | {s.spl:.3f} | "
+        f"{s.timeout} | {s.time_median_s:.1f} s / {s.time_p90_s:.1f} s | {s.spl:.3f} | "
         f"{s.sct_median:.3f} | {s.act_ms_median:.2f} ms |"
     )
 

@@ -45,8 +45,8 @@ class PicoHospitalEnv(PicoEnv):
     ## Rewards
     Named terms (`info["reward_terms"]`, weights `rewards=`): `progress` (metres of decrease of the
     geodesic distance to the next arrival square; one field per target, computed at reset on the
-    true static world with the episode's closed doors and boxes), `arrival` (+10 per cabinet
-    counted), `bump` (-10 per bump), `time` (-0.1 per second), `false_announcement` (-1 each).
+    true static world with the episode's closed doors and boxes), `cabinet` (+10 per cabinet
+    counted), `bump` (-10 per bump), `time` (-0.1 per second), `false_announce` (-1 each).
     `info["cost"]` (Safety Gym's convention): 1 per bump plus 1 per second within 0.1 m of anything.
 
     ## Arrival

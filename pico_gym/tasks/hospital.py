@@ -41,20 +41,20 @@ class HospitalRewardWeights:
 
     Attributes:
         progress: per metre of decrease of the geodesic distance to the next arrival square.
-        arrival: once per cabinet counted (in order).
+        cabinet: once per cabinet counted (in order).
         bump: per bump.
         time: per second of simulated time.
-        false_announcement: per announcement that did not satisfy the arrival rule.
+        false_announce: per announcement that did not satisfy the arrival rule.
     """
 
     progress: float = 1.0
-    arrival: float = 10.0
+    cabinet: float = 10.0
     bump: float = 10.0
     time: float = 0.1
-    false_announcement: float = 1.0
+    false_announce: float = 1.0
 
     def __post_init__(self) -> None:
-        for name in ("progress", "arrival", "bump", "time", "false_announcement"):
+        for name in ("progress", "cabinet", "bump", "time", "false_announce"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
                 raise ValueError(f"HospitalRewardWeights.{name} must be a finite number, got {value!r}")
@@ -308,10 +308,12 @@ class HospitalTask:
             return closed
         lo, hi = self.config.closed_doors
         k = min(int(rng.integers(lo, hi + 1)), n)
-        for _ in range(20):
-            closed = tuple(sorted(int(d) for d in rng.permutation(n)[:k]))
-            if not closed or reachable(np.vstack([world.door_segments[d] for d in closed])):
-                return closed
+        while k > 0:  # fewer doors when no draw of k keeps every target reachable
+            for _ in range(20):
+                closed = tuple(sorted(int(d) for d in rng.permutation(n)[:k]))
+                if reachable(np.vstack([world.door_segments[d] for d in closed])):
+                    return closed
+            k -= 1
         return ()
 
     def _start_region(self, world: Map) -> FloatArray:
@@ -447,10 +449,10 @@ class HospitalTask:
         done = self._done == len(self._targets)
         terms = {
             "progress": w.progress * progress,
-            "arrival": w.arrival * float(arrived_now),
+            "cabinet": w.cabinet * float(arrived_now),
             "bump": -w.bump * ctx.new_bumps,
             "time": -w.time * ctx.dt_s,
-            "false_announcement": -w.false_announcement * false_now,
+            "false_announce": -w.false_announce * false_now,
         }
         reason = None
         if done:

@@ -145,7 +145,7 @@ class HospitalConfig:
         door_corner_margin_m: a door keeps this far from the corners of its wall [m].
         extra_door_probability: chance of a door between two neighbouring rooms.
         cabinets_per_room: range of cabinets per room.
-        n_cabinets: range of the cabinets in the whole hospital.
+        building_cabinets: range of the cabinets in the whole hospital.
     """
 
     hallway_width_m: tuple[float, float] = (1.2, 1.8)
@@ -156,7 +156,7 @@ class HospitalConfig:
     door_corner_margin_m: float = 0.3
     extra_door_probability: float = 0.3
     cabinets_per_room: tuple[int, int] = (1, 2)
-    n_cabinets: tuple[int, int] = (3, 8)
+    building_cabinets: tuple[int, int] = (3, 8)
 
     def __post_init__(self) -> None:
         if not 1 <= self.n_rooms[0] <= self.n_rooms[1]:
@@ -171,8 +171,10 @@ class HospitalConfig:
             raise ValueError(f"HospitalConfig.hallway_shapes must be among 'I', 'L', got {self.hallway_shapes}")
         if not 2.0 <= self.room_side_m[0] <= self.room_side_m[1]:
             raise ValueError(f"HospitalConfig.room_side_m must be a range from >= 2.0 m, got {self.room_side_m}")
-        if not 1 <= self.n_cabinets[0] <= self.n_cabinets[1]:
-            raise ValueError(f"HospitalConfig.n_cabinets must be a range of at least 1, got {self.n_cabinets}")
+        if not 1 <= self.building_cabinets[0] <= self.building_cabinets[1]:
+            raise ValueError(
+                f"HospitalConfig.building_cabinets must be a range of at least 1, got {self.building_cabinets}"
+            )
 
 
 Rect = tuple[float, float, float, float]  # (x0, y0, x1, y1)
@@ -352,7 +354,7 @@ def _try_generate(rng: np.random.Generator, cfg: HospitalConfig, robot: RobotCon
     # Cabinets, against room walls, fronts facing into the room.
     cabinets: list[FloatArray] = []
     squares: list[FloatArray] = []
-    target_cabinets = int(rng.integers(cfg.n_cabinets[0], cfg.n_cabinets[1] + 1))
+    target_cabinets = int(rng.integers(cfg.building_cabinets[0], cfg.building_cabinets[1] + 1))
     room_order = rng.permutation(len(rooms))
     for i in room_order:
         per_room = int(rng.integers(cfg.cabinets_per_room[0], cfg.cabinets_per_room[1] + 1))
@@ -363,7 +365,7 @@ def _try_generate(rng: np.random.Generator, cfg: HospitalConfig, robot: RobotCon
             if placed is not None:
                 cabinets.append(placed[0])
                 squares.append(placed[1])
-    if len(cabinets) < cfg.n_cabinets[0]:
+    if len(cabinets) < cfg.building_cabinets[0]:
         return None
 
     # The start area: 1 x 1 m in the first hallway leg, away from the doors.
