@@ -31,14 +31,14 @@ def cmd_maps(args: argparse.Namespace) -> int:
     from pico_gym.world.catalog import load_shipped, shipped_maps
 
     if args.name is None:
-        print(f"{'name':<24} {'size (m)':<13} {'segments':>8}  {'finish':<6}  file")
+        print(f"{'name':<30} {'env':<16} {'size (m)':<13} {'segments':>8} {'cabinets':>8} {'doors':>5}  file")
         for name, path in shipped_maps().items():
             world = load_shipped(name)
             x0, y0, x1, y1 = world.bounds
-            finish = "yes" if world.finish is not None else "-"
+            env = "PicoEscape-v0" if world.finish is not None else ("PicoHospital-v0" if world.cabinets else "-")
             print(
-                f"{name:<24} {x1 - x0:5.1f} x {y1 - y0:<5.1f} {len(world.solid_segments()):>8}"
-                f"  {finish:<6}  {path.name}"
+                f"{name:<30} {env:<16} {x1 - x0:5.1f} x {y1 - y0:<5.1f} {len(world.seen_segments(False)):>8}"
+                f" {len(world.cabinets):>8} {len(world.door_segments):>5}  {path.name}"
             )
         return 0
     world = load_shipped(args.name)

@@ -436,3 +436,82 @@ def test_bad_hospital_files_name_the_file_and_key(tmp_path) -> None:
     del data["cabinets"]
     with pytest.raises(ValueError, match="a hospital map needs 'cabinets'"):
         gym.make("PicoHospital-v0", map_path=_write(tmp_path, data))
+
+
+# --- the shipped hospitals -------------------------------------------------------------------------
+
+
+def test_2021_cabinets_land_on_their_image_blocks_and_face_free_floor() -> None:
+    from PIL import Image
+
+    world = load_shipped("hospital_2021")
+    hm = world.heightmap
+    grey = np.asarray(Image.open(world.source.parent / hm.image).convert("L"))
+    rows = grey.shape[0]
+    ox, oy = hm.origin
+    assert len(world.cabinets) == 8
+
+    def pixel_values(polygon: np.ndarray) -> np.ndarray:
+        (x0, y0), (x1, y1) = polygon.min(axis=0), polygon.max(axis=0)
+        c0, c1 = round((x0 - ox) / hm.resolution), round((x1 - ox) / hm.resolution)
+        r0, r1 = rows - round((y1 - oy) / hm.resolution), rows - round((y0 - oy) / hm.resolution)
+        return grey[r0:r1, c0:c1]
+
+    robot = gym.make("PicoHospital-v0", map="hospital_2021").unwrapped.config.robot
+    from pico_gym.world.hospital import square_admits_robot
+
+    for i in range(8):
+        cab = Cabinet.of(world, i)
+        block = pixel_values(cab.polygon)
+        # Exactly on its 16 x 16 px block (cabinet 2's block lacks one corner pixel in the image).
+        assert block.shape == (16, 16) and (block >= 128).sum() <= 1, i
+        assert (pixel_values(cab.square) == 255).all(), i  # the front faces free floor
+        assert square_admits_robot(cab, world.solid_segments(), robot, clearance_m=0.02), i
+
+
+def test_2021_heightmap_is_simplified_within_a_centimetre() -> None:
+    from pico_gym.world.heightmap import heightmap_geometry, read_grey
+
+    world = load_shipped("hospital_2021")
+    hm = world.heightmap
+    grey = read_grey(world.source.parent / hm.image)
+    raw = heightmap_geometry(grey, hm.resolution, hm.origin).visible
+    fitted = heightmap_geometry(grey, hm.resolution, hm.origin, hm.simplify_m).visible
+    assert len(raw) == 1904 and len(fitted) < 0.75 * len(raw)
+    corners = np.vstack([raw[:, :2], raw[:, 2:]])
+    assert max(geometry.point_clearance(x, y, fitted) for x, y in corners[::3]) <= 0.01
+    t = np.linspace(0, 1, 5)[:, None, None]
+    along = (fitted[None, :, :2] * (1 - t) + fitted[None, :, 2:] * t).reshape(-1, 2)
+    assert max(geometry.point_clearance(x, y, raw) for x, y in along[::3]) <= 0.01
+
+
+def test_2021_movers_come_from_the_course_config_in_the_map_frame() -> None:
+    world = load_shipped("hospital_2021")
+    cart, person = world.movers
+    # hospital-facts.md 1.6: cart x = 4.785, y 0.20 -> 2.94, yaw +90; person x = 6.725, y 6.0 <-> -0.1.
+    assert cart.init_pose == pytest.approx((4.785, 0.20, UP)) and cart.final_pose == pytest.approx((4.785, 2.94, UP))
+    assert person.init_pose == pytest.approx((6.725, 6.0, UP)) and person.final_pose == pytest.approx((6.725, -0.1, UP))
+    assert (cart.velocity, cart.repeat, person.velocity, person.repeat) == (0.6, False, 0.5, True)
+    assert cart.pause_radius_m == pytest.approx(0.86, abs=0.01) and person.pause_radius_m == pytest.approx(
+        0.52, abs=0.01
+    )
+
+
+@pytest.mark.parametrize(
+    "name",
+    [
+        "hospital_2019",
+        "hospital_2021",
+        "hospital_example",
+        "hospital_testing_student_2019",
+        "hospital_thick_student_2019",
+    ],
+)
+def test_every_shipped_hospital_runs_every_cabinet_reachable(name: str) -> None:
+    env = gym.make("PicoHospital-v0", map=name)
+    world = load_shipped(name)
+    _, info = env.reset(seed=0, options={"cabinet_order": list(range(len(world.cabinets)))})
+    legs = env.unwrapped.episode.extra["legs"]
+    assert all(math.isfinite(leg) for leg in legs), legs
+    for _ in range(20):
+        env.step(np.array([0.0, 0.0, 0.5]))

@@ -227,9 +227,14 @@ class HospitalTask:
         squares = [c.square for c in targets]
 
         def reachable(segments: Segments) -> bool:
-            costs = _costs(grid, base_clearance, segments)
-            field = costs.field_from_point(float(centre[0]), float(centre[1]))
-            return all(math.isfinite(field.lookup(*c.dock_point())) for c in targets)
+            mask = _costs(grid, base_clearance, segments).reachable_from(float(centre[0]), float(centre[1]))
+            for cab in targets:
+                if not mask[_cell(grid, *cab.dock_point())]:
+                    # The dock point's cell may be blocked while the square is not: ask the square.
+                    inside = _square_cells(grid, cab.square) & mask
+                    if not inside.any():
+                        return False
+            return True
 
         closed = self._closed_doors(rng, options.get("closed_doors"), world, reachable, where)
         door_segments = [world.door_segments[d] for d in closed]
@@ -358,8 +363,12 @@ class HospitalTask:
         lo, hi = self.config.n_movers
         n = int(rng.integers(lo, hi + 1))
         out: list[MoverRecord] = []
+        if n == 0:
+            return out
+        centre = area.mean(axis=0)
+        inside = _costs(grid, clearance, np.zeros((0, 4))).reachable_from(float(centre[0]), float(centre[1]))
         for _ in range(n):
-            record = _draw_person(rng, grid, clearance, area, squares, out)
+            record = _draw_person(rng, grid, np.where(inside, clearance, 0.0), area, squares, out)
             if record is not None:
                 out.append(record)
         return out
@@ -390,8 +399,8 @@ class HospitalTask:
         # Candidate centres: inside the building (reachable from the start area), off the walls.
         centre = area.mean(axis=0)
         door_extra = np.vstack(door_segs) if door_segs else np.zeros((0, 4))
-        inside = _costs(grid, clearance, door_extra).field_from_point(float(centre[0]), float(centre[1]))
-        free = np.argwhere(np.isfinite(inside.distance) & (clearance > 0.2))
+        inside = _costs(grid, clearance, door_extra).reachable_from(float(centre[0]), float(centre[1]))
+        free = np.argwhere(inside & (clearance > 0.2))
         boxes: list[FloatArray] = []
         for _ in range(60):
             if len(boxes) == n:
@@ -495,6 +504,19 @@ def _record(data: Any) -> MoverRecord:
     return mover_record(data, "movers")
 
 
+def _cell(grid: Grid, x: float, y: float) -> tuple[int, int]:
+    c = int(np.clip((x - grid.x0) / grid.resolution, 0, grid.shape[1] - 1))
+    r = int(np.clip((y - grid.y0) / grid.resolution, 0, grid.shape[0] - 1))
+    return r, c
+
+
+def _square_cells(grid: Grid, square: FloatArray) -> np.ndarray:
+    from pico_gym.world.grid import _inside_convex
+
+    xs, ys = grid.centres()
+    return _inside_convex(xs, ys, square)
+
+
 def _clearance(grid: Grid, world: Map) -> FloatArray:
     """Clearance of every cell to the world's static geometry (walls, cabinets, obstacles)."""
     static = np.vstack([world.structure_segments, world.cabinet_segments, world.obstacle_segments, world.low_segments])
@@ -543,7 +565,8 @@ def _draw_person(
     others: list[MoverRecord],
 ) -> MoverRecord | None:
     """A walking person on a straight 2-6 m path along a grid axis with wall clearance >= half its
-    width + 0.15 m, away from the start area and the arrival squares (hospital-facts.md 3)."""
+    width + 0.15 m, away from the start area and the arrival squares (hospital-facts.md 3).
+    `clearance` is 0 outside the building, so the path lies inside it."""
     need = 0.5 * PERSON_WIDTH_M + 0.15
     res = grid.resolution
     xs, ys = grid.centres()

@@ -101,6 +101,123 @@ def _boundary_segments(solid: np.ndarray) -> np.ndarray:
     return np.vstack([horizontal, vertical])
 
 
+def _contours(solid: np.ndarray) -> list[np.ndarray]:
+    """The pixel outline of a boolean image as closed loops of pixel corners (col, row).
+
+    Every boundary between a solid pixel and a free one (or the image edge) is a unit edge,
+    directed with the solid pixel on its left; the edges are linked into loops. Where two solid
+    pixels touch only at a corner, the loop turns so that the two pixels stay separate.
+    """
+    h, w = solid.shape
+    padded = np.zeros((h + 2, w + 2), dtype=bool)
+    padded[1:-1, 1:-1] = solid
+    edges: dict[tuple[int, int], list[tuple[int, int]]] = {}
+
+    def add(r0: np.ndarray, c0: np.ndarray, r1: np.ndarray, c1: np.ndarray) -> None:
+        for a, b, c, d in zip(r0.tolist(), c0.tolist(), r1.tolist(), c1.tolist(), strict=True):
+            edges.setdefault((b, a), []).append((d, c))
+
+    # Image coordinates: corner (col, row), rows growing downwards. Pixel (r, c) spans corners
+    # (c, r)..(c + 1, r + 1). Solid on the left of the direction of travel (in image axes).
+    rr, cc = np.nonzero(padded[1:-1, 1:-1] & ~padded[:-2, 1:-1])  # free above: edge on the top side
+    add(rr, cc + 1, rr, cc)
+    rr, cc = np.nonzero(padded[1:-1, 1:-1] & ~padded[2:, 1:-1])  # free below: bottom side
+    add(rr + 1, cc, rr + 1, cc + 1)
+    rr, cc = np.nonzero(padded[1:-1, 1:-1] & ~padded[1:-1, :-2])  # free on the left: left side
+    add(rr, cc, rr + 1, cc)
+    rr, cc = np.nonzero(padded[1:-1, 1:-1] & ~padded[1:-1, 2:])  # free on the right: right side
+    add(rr + 1, cc + 1, rr, cc + 1)
+    loops = []
+    while edges:
+        start = next(iter(edges))
+        loop: list[tuple[int, int]] = []
+        prev: tuple[int, int] | None = None
+        cur = start
+        while True:
+            outs = edges[cur]
+            if len(outs) == 1 or prev is None:
+                nxt = outs.pop()
+            else:  # two pixels touching at a corner: take the left turn (either is a valid outline)
+                dx, dy = cur[0] - prev[0], cur[1] - prev[1]
+                nxt = max(outs, key=lambda o: dx * (o[1] - cur[1]) - dy * (o[0] - cur[0]))
+                outs.remove(nxt)
+            if not outs:
+                del edges[cur]
+            loop.append(cur)
+            prev, cur = cur, nxt
+            if cur == start:
+                break
+        loops.append(np.array(loop, dtype=np.float64))
+    return loops
+
+
+# A pixel corner between two straight runs at least this long (pixels) is a true corner of the
+# outline (a wall's corner), kept as a vertex; shorter runs are a staircase, fitted through.
+_TRUE_CORNER_RUN_PX = 3
+
+
+def _simplify_loop(corners: np.ndarray, tolerance: float) -> np.ndarray:
+    """A closed polyline with as few vertices as keep every corner and edge midpoint of the pixel
+    outline within `tolerance` (pixels) of it: Douglas-Peucker whose vertices are edge midpoints
+    (which lie on the smooth outline a staircase approximates) and the outline's true corners,
+    judged on all the outline's points."""
+    n = len(corners)
+    mids = 0.5 * (corners + np.roll(corners, -1, axis=0))
+    # Straight runs: edge i goes from corner i to i + 1; a run is a stretch of equal directions.
+    direction = np.roll(corners, -1, axis=0) - corners
+    change = np.any(direction != np.roll(direction, 1, axis=0), axis=1)  # edge i starts a new run
+    if not change.any():
+        change[0] = True
+    first = int(np.argmax(change))
+    run_id = np.cumsum(np.roll(change, -first)) - 1
+    run_id = np.roll(run_id, first)
+    run_len = np.bincount(run_id)[run_id]
+    true_corner = change & (run_len >= _TRUE_CORNER_RUN_PX) & (np.roll(run_len, 1) >= _TRUE_CORNER_RUN_PX)
+    # Interleave: corner i, then midpoint of edge i (from corner i to i + 1).
+    pts = np.empty((2 * n, 2))
+    pts[0::2] = corners
+    pts[1::2] = mids
+    keep = np.zeros(2 * n, dtype=bool)
+    a, b = 1, 1 + 2 * (n // 2)  # two midpoints far apart split the loop into two open chains
+    keep[a] = keep[b] = True
+    stack = [(a, b), (b, a + 2 * n)]
+    while stack:
+        i, j = stack.pop()
+        if j - i <= 2:
+            continue
+        idx = np.arange(i + 1, j) % (2 * n)
+        p, q = pts[i % (2 * n)], pts[j % (2 * n)]
+        d = q - p
+        length = float(np.hypot(*d))
+        rel = pts[idx] - p
+        if length > 0:
+            t = np.clip((rel @ d) / (length * length), 0.0, 1.0)
+            dist = np.hypot(rel[:, 0] - t * d[0], rel[:, 1] - t * d[1])
+        else:
+            dist = np.hypot(rel[:, 0], rel[:, 1])
+        # Midpoints and true corners may become vertices; every point is judged.
+        span = np.arange(i + 1, j)
+        candidates = (span % 2 == 1) | ((span % 2 == 0) & true_corner[(span // 2) % n])
+        if dist.max() <= tolerance:
+            continue
+        split_order = np.argsort(-np.where(candidates, dist, -1.0))
+        k = int(np.arange(i + 1, j)[split_order[0]])
+        keep[k % (2 * n)] = True
+        stack += [(i, k), (k, j)]
+    return pts[keep]
+
+
+def _simplified_segments(solid: np.ndarray, tolerance_px: float) -> np.ndarray:
+    """Boundary segments of a boolean image, pixel staircases fitted within `tolerance_px`."""
+    if not solid.any():
+        return np.zeros((0, 4))
+    out = []
+    for loop in _contours(solid):
+        poly = _simplify_loop(loop, tolerance_px)
+        out.append(np.hstack([poly, np.roll(poly, -1, axis=0)]))
+    return np.vstack(out)
+
+
 def _door_blobs(grey: np.ndarray) -> list[np.ndarray]:
     """Boolean masks of the 4-connected blobs of door grey."""
     door = (grey >= DOOR_GREY_MIN) & (grey <= DOOR_GREY_MAX)
@@ -129,6 +246,7 @@ def heightmap_geometry(
     grey: np.ndarray,
     resolution_m: float = COURSE_RESOLUTION_M,
     origin: tuple[float, float] | None = None,
+    simplify_m: float | None = None,
 ) -> HeightmapGeometry:
     """Convert a grey heightmap into wall segments in the map frame.
 
@@ -138,6 +256,9 @@ def heightmap_geometry(
         origin: None for the course simulator's placement (image centre at the world origin,
             world x up the image, world y to the left); else the world position of the lower-left
             pixel corner with x right and y up, as a ROS map_server map.
+        simplify_m: None keeps every pixel edge (merged into straight runs); a distance fits the
+            pixel staircases of curved or slanted outlines with segments within that distance of
+            the pixel outline (fewer segments: a faster LRF).
 
     Returns:
         The visible, low and door segments.
@@ -162,8 +283,16 @@ def heightmap_geometry(
             y = origin[1] + (rows - r) * resolution_m
         return np.column_stack([x[:, 0], y[:, 0], x[:, 1], y[:, 1]])
 
+    if simplify_m is None:
+        outline = _boundary_segments
+    else:
+        tolerance_px = simplify_m / resolution_m
+
+        def outline(solid: np.ndarray) -> np.ndarray:
+            return _simplified_segments(solid, tolerance_px)
+
     return HeightmapGeometry(
-        visible=to_world(_boundary_segments(visible)),
-        low=to_world(_boundary_segments(low)),
+        visible=to_world(outline(visible)),
+        low=to_world(outline(low)),
         doors=tuple(to_world(_boundary_segments(blob)) for blob in doors),
     )

@@ -54,6 +54,7 @@ class Heightmap:
     image: str
     resolution: float = COURSE_RESOLUTION_M
     origin: tuple[float, float] | None = None
+    simplify_m: float | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -92,7 +93,8 @@ class Map:
             grey = read_grey(path)
         except ImageError as error:
             raise MapError(f"{where}: heightmap.image {path}: {error}") from error
-        return heightmap_geometry(grey, self.heightmap.resolution, self.heightmap.origin)
+        hm = self.heightmap
+        return heightmap_geometry(grey, hm.resolution, hm.origin, hm.simplify_m)
 
     def _index_segments(self, pairs: np.ndarray) -> Segments:
         pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
@@ -324,7 +326,12 @@ def map_from_dict(data: Any, source: Path | None = None) -> Map:
         if resolution <= 0:
             raise _fail(where, "heightmap.resolution", f"must be positive, got {resolution}")
         origin = _xy(hm["origin"], where, "heightmap.origin") if "origin" in hm else None
-        heightmap = Heightmap(hm["image"], resolution, origin)
+        simplify = None
+        if hm.get("simplify_m") is not None:
+            simplify = _number(hm["simplify_m"], where, "heightmap.simplify_m")
+            if not 0 < simplify <= resolution:
+                raise _fail(where, "heightmap.simplify_m", f"must be in (0, resolution = {resolution}], got {simplify}")
+        heightmap = Heightmap(hm["image"], resolution, origin, simplify)
 
     extra = {k: v for k, v in data.items() if k not in _KNOWN_KEYS}
     result = Map(
@@ -464,6 +471,8 @@ def map_to_dict(world: Map, relative_to: Path | None = None) -> dict[str, Any]:
         hm: dict[str, Any] = {"image": image, "resolution": world.heightmap.resolution}
         if world.heightmap.origin is not None:
             hm["origin"] = list(world.heightmap.origin)
+        if world.heightmap.simplify_m is not None:
+            hm["simplify_m"] = world.heightmap.simplify_m
         data["heightmap"] = hm
     data.update(world.extra)
     return data
