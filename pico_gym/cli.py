@@ -87,10 +87,10 @@ def _median_rate(fn: Callable[[], int], repeats: int) -> tuple[float, list[float
     return statistics.median(rates), rates
 
 
-def _env_rate(steps: int, seed: int, **kwargs: object) -> Callable[[], int]:
+def _env_rate(steps: int, seed: int, env_id: str = "PicoEscape-v0", **kwargs: object) -> Callable[[], int]:
     import gymnasium as gym
 
-    env = gym.make("PicoEscape-v0", **kwargs)
+    env = gym.make(env_id, **kwargs)
     env.reset(seed=seed)
     env.action_space.seed(seed)
     actions = [env.action_space.sample() for _ in range(steps)]
@@ -125,6 +125,82 @@ def clutter_scene(n_segments: int, seed: int = 0) -> np.ndarray:
     return np.array(segs[:n_segments], dtype=np.float64)
 
 
+def _reset_rate(env_id: str, seed: int, repeats: int, **kwargs: object) -> tuple[float, float]:
+    """Median resets/s over `repeats` runs of 20 resets, and the median reset time [ms]."""
+    import gymnasium as gym
+
+    env = gym.make(env_id, **kwargs)
+    env.reset(seed=seed)
+    times: list[float] = []
+
+    def resets() -> int:
+        for _ in range(20):
+            t0 = time.perf_counter()
+            env.reset()
+            times.append(time.perf_counter() - t0)
+        return 20
+
+    median, _ = _median_rate(resets, repeats)
+    return median, 1e3 * statistics.median(times)
+
+
+def _print_rate(label: str, run: Callable[[], int], repeats: int, steps: int, reference: float | None = None) -> float:
+    median, rates = _median_rate(run, repeats)
+    ratio = f"   {median / reference:5.2f}x escape" if reference else ""
+    print(
+        f"{label:<66} {median:9,.0f} steps/s{ratio}   (runs: {', '.join(f'{r:,.0f}' for r in rates)}; "
+        f"{run.resets} episode ends per {steps:,} steps)"  # type: ignore[attr-defined]
+    )
+    return median
+
+
+def bench_hospital(args: argparse.Namespace) -> int:
+    """PicoHospital-v0's rows, with PicoEscape-v0's default row measured in the same run as the reference."""
+    import gymnasium as gym
+
+    import pico_gym  # noqa: F401
+    from pico_gym.sensors.lrf import Lrf, LrfConfig
+
+    print(f"machine : {_machine()}")
+    print(f"versions: {_versions()}")
+    print(f"method  : median of {args.repeats} runs; random actions, one process; ratios to escape's row of this run\n")
+    escape = _print_rate(
+        "PicoEscape-v0, 1000 beams, defaults (reference)", _env_rate(args.steps, args.seed), args.repeats, args.steps
+    )
+    busy = {"n_movers": (2, 2), "n_boxes": (2, 2)}
+    rows = [
+        ("PicoHospital-v0, hospital_2019, 2 movers, 2 boxes, 0-1 closed doors", {"map": "hospital_2019", **busy}),
+        ("PicoHospital-v0, hospital_2019, defaults", {"map": "hospital_2019"}),
+        ("PicoHospital-v0, hospital_2021 (its 2 movers, 0-2 boxes)", {"map": "hospital_2021"}),
+        ("PicoHospital-v0, generated hospitals, defaults", {}),
+    ]
+    for label, kwargs in rows:
+        run = _env_rate(args.steps, args.seed, "PicoHospital-v0", **kwargs)
+        _print_rate(label, run, args.repeats, args.steps, escape)
+    print()
+    for label, kwargs in rows:
+        rate, ms = _reset_rate("PicoHospital-v0", args.seed, args.repeats, **kwargs)
+        print(f"{'reset, ' + label.split(', ', 1)[1]:<66} {rate:9,.0f} resets/s   ({ms:.1f} ms median)")
+    print()
+    lrf = Lrf(LrfConfig())
+    for name in ("hospital_2019", "hospital_2021"):
+        env = gym.make("PicoHospital-v0", map=name)
+        env.reset(seed=args.seed)
+        scene = env.unwrapped.scene
+        pose = env.unwrapped.pose
+        lrf.exact(pose, scene.static_seen, scene.mover_segments)
+
+        def scans(scene=scene, pose=pose) -> int:  # noqa: ANN001
+            for _ in range(1000):
+                lrf.exact(pose, scene.static_seen, scene.mover_segments)
+            return 1000
+
+        median, _ = _median_rate(scans, args.repeats)
+        n = len(scene.static_seen) + len(scene.mover_segments)
+        print(f"{f'LRF, 1000 beams, {name} at its start ({n} segments)':<66} {median:9,.0f} scans/s")
+    return 0
+
+
 def cmd_bench_env(args: argparse.Namespace) -> int:
     import gymnasium as gym
 
@@ -132,6 +208,8 @@ def cmd_bench_env(args: argparse.Namespace) -> int:
     from pico_gym.sensors.lrf import Lrf, LrfConfig
     from pico_gym.types import Pose
 
+    if args.env == "PicoHospital-v0":
+        return bench_hospital(args)
     print(f"machine : {_machine()}")
     print(f"versions: {_versions()}")
     print(f"method  : median of {args.repeats} runs; random actions, one process, a generated room per episode\n")
@@ -230,6 +308,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_maps)
 
     p = sub.add_parser("bench-env", help="measure env and LRF throughput on this machine")
+    import pico_gym
+
+    p.add_argument("--env", default="PicoEscape-v0", choices=pico_gym.ENV_IDS, help="which env's rows")
     p.add_argument("--steps", type=int, default=20000, help="env steps per run")
     p.add_argument("--repeats", type=int, default=5, help="runs per figure (the median is printed)")
     p.add_argument("--seed", type=int, default=0, help="seed of the envs and the random actions")

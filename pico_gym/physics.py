@@ -71,19 +71,6 @@ class PhysicsConfig:
             raise ValueError("PhysicsConfig: substep_s must be > 0 and iterations >= 1")
 
 
-def glide_positions(x: float, y: float, theta: float, vx: float, vy: float, w: float, n: int, h: float) -> np.ndarray:
-    """(n, 2) positions at times 0, h, ..., (n - 1) h of a body driven by a constant body-frame twist."""
-    t = np.arange(n) * h
-    if abs(w) < 1e-12:
-        c, s = math.cos(theta), math.sin(theta)
-        return np.column_stack([x + (c * vx - s * vy) * t, y + (s * vx + c * vy) * t])
-    a = theta + w * t
-    # Integral of R(theta + w t) (vx, vy) dt from 0 to t.
-    sx = (np.sin(a) - math.sin(theta)) / w
-    cx = (math.cos(theta) - np.cos(a)) / w
-    return np.column_stack([x + vx * sx - vy * cx, y + vx * cx + vy * sx])
-
-
 class Physics:
     """One episode's pymunk world with the robot in it.
 
@@ -108,6 +95,7 @@ class Physics:
         self.config = config
         self.robot = robot
         self.scene = scene
+        self._circumradius_m = robot.circumradius_m  # a property that walks the outline: once
         space = pymunk.Space()
         space.iterations = config.iterations
         space.collision_slop = config.collision_slop_m
@@ -202,7 +190,7 @@ class Physics:
 
     def sweep_m(self, vx: float, vy: float, w: float, duration_s: float) -> float:
         """An upper bound on how far any point of the footprint moves with this twist [m]."""
-        return (math.hypot(vx, vy) + abs(w) * self.robot.circumradius_m) * duration_s
+        return (math.hypot(vx, vy) + abs(w) * self._circumradius_m) * duration_s
 
     def step(self, vx: float, vy: float, w: float, duration_s: float, clearance_m: float = 0.0) -> None:
         """Drive with a body-frame twist for `duration_s` (a whole number of sub-steps).
@@ -238,20 +226,20 @@ class Physics:
             if self._mover_bodies:
                 self._move_movers(h)
             self.space.step(h)
-            if self._mover_bodies:
-                self._place_movers()
             self.time_s += h
+        if self._mover_bodies:
+            self._place_movers()
 
     def _move_movers(self, h: float) -> None:
-        """Advance the scene's movers by one sub-step and give their bodies the matching velocity."""
+        """Advance the scene's movers by one sub-step and give their bodies the matching velocity.
+
+        pymunk moves a kinematic body by its velocity, so a body is touched only when its mover's
+        velocity changes (most of the time a mover waits, or walks straight at a constant speed)."""
         movers = self.scene.movers
         x, y = self.body.position
-        before = movers.positions().copy()
-        movers.advance(h, float(x), float(y))
-        for body, (bx, by), (ax, ay) in zip(
-            self._mover_bodies, before.tolist(), movers.positions().tolist(), strict=True
-        ):
-            body.velocity = ((ax - bx) / h, (ay - by) / h)
+        if movers.advance(h, x, y):
+            for body, (vx, vy) in zip(self._mover_bodies, movers.velocity.tolist(), strict=True):
+                body.velocity = (vx, vy)
 
     def _place_movers(self) -> None:
         """Put the kinematic bodies exactly where the scene's movers are (no drift)."""
@@ -260,12 +248,14 @@ class Physics:
         self.scene.update_movers()
 
     def _advance_movers_gliding(self, vx: float, vy: float, w: float, n: int, h: float) -> None:
-        """The movers' sub-steps while the robot glides (no contact possible this step): the robot's
-        position at the start of each sub-step is the exact integral of the twist."""
+        """The movers' sub-steps while the robot glides (no contact possible this step)."""
         x, y = self.body.position
-        self.scene.movers.advance_along(h, glide_positions(float(x), float(y), self.body.angle, vx, vy, w, n, h))
+        movers = self.scene.movers
+        movers.advance_gliding(x, y, self.body.angle, vx, vy, w, n, h)
+        # The bodies sleep through a glide: no contact is possible, their positions are set below.
         for body in self._mover_bodies:
             body.velocity = (0.0, 0.0)
+        movers.velocity[:] = 0.0
         self._place_movers()
 
     def _glide(self, vx: float, vy: float, w: float, duration_s: float) -> None:

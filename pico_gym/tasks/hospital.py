@@ -85,7 +85,8 @@ class HospitalTaskConfig:
         start_clearance_m: minimum footprint clearance of a drawn start pose [m].
         rewards: weights of the reward terms.
         hospital: ranges of the hospital generator (maps drawn when no map is given).
-        geodesic_resolution_m: cell size of the geodesic fields [m].
+        geodesic_resolution_m: cell size of the geodesic fields [m]; 0.1 m gives the oracle chains
+            of the 2019 and 2021 maps within 1 % of 0.05 m at well under half the reset time.
     """
 
     n_cabinets: int = 3
@@ -107,7 +108,7 @@ class HospitalTaskConfig:
     start_clearance_m: float = 0.05
     rewards: HospitalRewardWeights = field(default_factory=HospitalRewardWeights)
     hospital: HospitalConfig = field(default_factory=HospitalConfig)
-    geodesic_resolution_m: float = 0.05
+    geodesic_resolution_m: float = 0.1
 
     def __post_init__(self) -> None:
         if self.arrival not in ("dwell", "announce"):
@@ -227,12 +228,13 @@ class HospitalTask:
         squares = [c.square for c in targets]
 
         def reachable(segments: Segments) -> bool:
-            mask = _costs(grid, base_clearance, segments).reachable_from(float(centre[0]), float(centre[1]))
+            costs = _costs(grid, base_clearance, segments)
+            mask = costs.reachable_from(float(centre[0]), float(centre[1]))
             for cab in targets:
                 if not mask[_cell(grid, *cab.dock_point())]:
                     # The dock point's cell may be blocked while the square is not: ask the square.
-                    inside = _square_cells(grid, cab.square) & mask
-                    if not inside.any():
+                    rows, cols = costs.region_cells(cab.square)
+                    if not mask[rows, cols].any():
                         return False
             return True
 
@@ -412,7 +414,7 @@ class HospitalTask:
             poly = _rect(cx, cy, yaw, float(a), float(b))
             if geometry.polygon_clearance(poly, static, 0.06) < 0.05:
                 continue
-            if any(_polygon_distance(poly, k) < BOX_MARGIN_M for k in keep_out + lanes + boxes):
+            if any(_polygon_distance(poly, k, BOX_MARGIN_M) < BOX_MARGIN_M for k in keep_out + lanes + boxes):
                 continue
             candidate = boxes + [poly]
             segs = door_segs + [geometry.polygon_to_segments(p) for p in candidate]
@@ -510,13 +512,6 @@ def _cell(grid: Grid, x: float, y: float) -> tuple[int, int]:
     return r, c
 
 
-def _square_cells(grid: Grid, square: FloatArray) -> np.ndarray:
-    from pico_gym.world.grid import _inside_convex
-
-    xs, ys = grid.centres()
-    return _inside_convex(xs, ys, square)
-
-
 def _clearance(grid: Grid, world: Map) -> FloatArray:
     """Clearance of every cell to the world's static geometry (walls, cabinets, obstacles)."""
     static = np.vstack([world.structure_segments, world.cabinet_segments, world.obstacle_segments, world.low_segments])
@@ -537,8 +532,13 @@ def _rect(cx: float, cy: float, yaw: float, a: float, b: float) -> FloatArray:
     return np.column_stack([cx + c * local[:, 0] - s * local[:, 1], cy + s * local[:, 0] + c * local[:, 1]])
 
 
-def _polygon_distance(p: FloatArray, q: FloatArray) -> float:
-    """Distance between two polygons (0 if they overlap)."""
+def _polygon_distance(p: FloatArray, q: FloatArray, within: float = math.inf) -> float:
+    """Distance between two polygons (0 if they overlap); at least `within` when it is that large."""
+    (plx, ply), (phx, phy) = p.min(axis=0), p.max(axis=0)
+    (qlx, qly), (qhx, qhy) = q.min(axis=0), q.max(axis=0)
+    gap = math.hypot(max(0.0, qlx - phx, plx - qhx), max(0.0, qly - phy, ply - qhy))
+    if gap >= within:
+        return gap  # the bounding boxes are already that far apart
     if geometry.point_in_polygon(p[0, 0], p[0, 1], q) or geometry.point_in_polygon(q[0, 0], q[0, 1], p):
         return 0.0
     return float(geometry.polygon_clearance(p, geometry.polygon_to_segments(q)))
@@ -612,7 +612,8 @@ def _draw_person(
             repeat=True,
         )
         lane = _mover_lane(record)
-        if any(_polygon_distance(lane, k) < 0.3 + record.half_diagonal_m for k in keep_out):
+        margin = 0.3 + record.half_diagonal_m
+        if any(_polygon_distance(lane, k, margin) < margin for k in keep_out):
             continue
         return record
     return None

@@ -263,12 +263,25 @@ class CostGrid:
         )
         return GeodesicField(self.grid, distance)
 
+    def region_cells(self, polygon: FloatArray) -> tuple[np.ndarray, np.ndarray]:
+        """(rows, cols) of the cells whose centres lie inside a convex polygon (free or not)."""
+        g = self.grid
+        polygon = np.asarray(polygon, dtype=np.float64)
+        (x0, y0), (x1, y1) = polygon.min(axis=0), polygon.max(axis=0)
+        c0, r0 = max(0, int((x0 - g.x0) / g.resolution) - 1), max(0, int((y0 - g.y0) / g.resolution) - 1)
+        c1 = min(g.shape[1], int((x1 - g.x0) / g.resolution) + 2)
+        r1 = min(g.shape[0], int((y1 - g.y0) / g.resolution) + 2)
+        xs = g.x0 + (np.arange(c0, c1) + 0.5) * g.resolution
+        ys = g.y0 + (np.arange(r0, r1) + 0.5) * g.resolution
+        gx, gy = np.meshgrid(xs, ys)
+        rows, cols = np.nonzero(_inside_convex(gx, gy, polygon))
+        return rows + r0, cols + c0
+
     def field_to_region(self, polygon: FloatArray) -> GeodesicField:
         """Distance to a region (a convex polygon, e.g. an arrival square): 0 inside it."""
-        xs, ys = self.grid.centres()
-        inside = _inside_convex(xs, ys, np.asarray(polygon, dtype=np.float64)) & np.isfinite(self.cost)
-        seeds_r, seeds_c = np.nonzero(inside)
-        return self.field_from(seeds_r, seeds_c, np.zeros(len(seeds_r)))
+        rows, cols = self.region_cells(polygon)
+        free = np.isfinite(self.cost[rows, cols])
+        return self.field_from(rows[free], cols[free], np.zeros(int(free.sum())))
 
     def cell_of(self, x: float, y: float) -> tuple[int, int]:
         """The (row, col) of the cell holding a point (clipped to the grid)."""

@@ -126,41 +126,93 @@ _LENGTH, _WIDTH, _TRIGGER, _SPEED, _PAUSE, _REPEAT = range(6)
 
 
 @njit
-def _advance(state: FloatArray, params: FloatArray, robot_xy: FloatArray, h: float) -> None:
+def _advance(state: FloatArray, params: FloatArray, robot_xy: FloatArray, h: float, vel: FloatArray) -> None:
     """Run every mover through one sub-step of `h` seconds per row of robot positions."""
     for k in range(robot_xy.shape[0]):
-        rx, ry = robot_xy[k, 0], robot_xy[k, 1]
-        for i in range(state.shape[0]):
-            if state[i, _FINISHED] != 0.0:
-                continue
-            distance = math.hypot(rx - state[i, _X], ry - state[i, _Y])
-            if state[i, _TRIGGERED] == 0.0:
-                if distance >= params[i, _TRIGGER]:
-                    continue
-                state[i, _TRIGGERED] = 1.0
-            if distance < params[i, _PAUSE]:
-                state[i, _PAUSED] = 1.0
-                continue
-            state[i, _PAUSED] = 0.0
+        _advance_one(state, params, robot_xy[k, 0], robot_xy[k, 1], h, vel)
+
+
+@njit
+def _advance_gliding(
+    state: FloatArray,
+    params: FloatArray,
+    x: float,
+    y: float,
+    theta: float,
+    vx: float,
+    vy: float,
+    w: float,
+    n: int,
+    h: float,
+    vel: FloatArray,
+) -> None:
+    """`n` sub-steps while the robot follows a constant body-frame twist from (x, y, theta): its
+    position at the start of sub-step k is the exact integral of the twist over k h."""
+    c0, s0 = math.cos(theta), math.sin(theta)
+    for k in range(n):
+        t = k * h
+        if abs(w) < 1e-12:
+            rx = x + (c0 * vx - s0 * vy) * t
+            ry = y + (s0 * vx + c0 * vy) * t
+        else:
+            a = theta + w * t
+            sx = (math.sin(a) - s0) / w
+            cx = (c0 - math.cos(a)) / w
+            rx = x + vx * sx - vy * cx
+            ry = y + vx * cx + vy * sx
+        _advance_one(state, params, rx, ry, h, vel)
+
+
+@njit
+def _advance_one(state: FloatArray, params: FloatArray, rx: float, ry: float, h: float, vel: FloatArray) -> bool:
+    """One sub-step of every mover with the robot at (rx, ry); `vel` gets each one's velocity.
+    Returns whether any velocity differs from the one `vel` held."""
+    changed = False
+    for i in range(state.shape[0]):
+        old_x, old_y = vel[i, 0], vel[i, 1]
+        _advance_mover(state, params, i, rx, ry, h, vel)
+        changed = changed or vel[i, 0] != old_x or vel[i, 1] != old_y
+    return changed
+
+
+@njit
+def _advance_mover(
+    state: FloatArray, params: FloatArray, i: int, rx: float, ry: float, h: float, vel: FloatArray
+) -> None:
+    vel[i, 0] = 0.0
+    vel[i, 1] = 0.0
+    if state[i, _FINISHED] != 0.0:
+        return
+    distance = math.hypot(rx - state[i, _X], ry - state[i, _Y])
+    if state[i, _TRIGGERED] == 0.0:
+        if distance >= params[i, _TRIGGER]:
+            return
+        state[i, _TRIGGERED] = 1.0
+    if distance < params[i, _PAUSE]:
+        state[i, _PAUSED] = 1.0
+        return
+    state[i, _PAUSED] = 0.0
+    dx = state[i, _GX] - state[i, _X]
+    dy = state[i, _GY] - state[i, _Y]
+    remaining = math.hypot(dx, dy)
+    if remaining <= MOVER_ARRIVE_M:
+        if params[i, _REPEAT] != 0.0:
+            gx, gy = state[i, _GX], state[i, _GY]
+            state[i, _GX], state[i, _GY] = state[i, _OX], state[i, _OY]
+            state[i, _OX], state[i, _OY] = gx, gy
             dx = state[i, _GX] - state[i, _X]
             dy = state[i, _GY] - state[i, _Y]
             remaining = math.hypot(dx, dy)
-            if remaining <= MOVER_ARRIVE_M:
-                if params[i, _REPEAT] != 0.0:
-                    gx, gy = state[i, _GX], state[i, _GY]
-                    state[i, _GX], state[i, _GY] = state[i, _OX], state[i, _OY]
-                    state[i, _OX], state[i, _OY] = gx, gy
-                    dx = state[i, _GX] - state[i, _X]
-                    dy = state[i, _GY] - state[i, _Y]
-                    remaining = math.hypot(dx, dy)
-                else:
-                    state[i, _FINISHED] = 1.0
-                    continue
-            if remaining <= 0.0:
-                continue
-            step = min(params[i, _SPEED] * h, remaining)
-            state[i, _X] += dx / remaining * step
-            state[i, _Y] += dy / remaining * step
+        else:
+            state[i, _FINISHED] = 1.0
+            return
+    if remaining <= 0.0:
+        return
+    speed = min(params[i, _SPEED], remaining / h)
+    vel[i, 0] = dx / remaining * speed
+    vel[i, 1] = dy / remaining * speed
+    state[i, _X] += vel[i, 0] * h
+    state[i, _Y] += vel[i, 1] * h
 
 
 @njit
@@ -198,19 +250,30 @@ class Movers:
             self.state[i, :7] = (x, y, yaw, rec.final_pose[0], rec.final_pose[1], x, y)
             self.params[i] = (rec.length, rec.width, rec.trigger_radius, rec.velocity, rec.pause_radius_m, rec.repeat)
         self.max_speed_mps = max((r.velocity for r in self.records), default=0.0)
+        self.velocity = np.zeros((n, 2))  # each mover's velocity over the last sub-step
 
     def __len__(self) -> int:
         return len(self.records)
 
-    def advance(self, duration_s: float, robot_x: float, robot_y: float) -> None:
-        """One physics sub-step of `duration_s` with the robot at (robot_x, robot_y)."""
-        if len(self.records):
-            _advance(self.state, self.params, np.array([[robot_x, robot_y]]), duration_s)
+    def advance(self, duration_s: float, robot_x: float, robot_y: float) -> bool:
+        """One physics sub-step of `duration_s` with the robot at (robot_x, robot_y); each mover's
+        velocity over it is left in `velocity`. Returns whether any velocity changed."""
+        if not self.records:
+            return False
+        return _advance_one(self.state, self.params, robot_x, robot_y, duration_s, self.velocity)
 
     def advance_along(self, duration_s: float, robot_xy: FloatArray) -> None:
         """Sub-steps of `duration_s`, one per row of robot positions (k, 2)."""
-        if len(self.records):
-            _advance(self.state, self.params, np.ascontiguousarray(robot_xy, dtype=np.float64), duration_s)
+        if self.records:
+            xy = np.ascontiguousarray(robot_xy, dtype=np.float64)
+            _advance(self.state, self.params, xy, duration_s, self.velocity)
+
+    def advance_gliding(
+        self, x: float, y: float, theta: float, vx: float, vy: float, w: float, n: int, duration_s: float
+    ) -> None:
+        """`n` sub-steps while the robot glides with a constant body-frame twist from (x, y, theta)."""
+        if self.records:
+            _advance_gliding(self.state, self.params, x, y, theta, vx, vy, w, n, duration_s, self.velocity)
 
     def poses(self) -> FloatArray:
         """(n, 3) true poses (x, y, yaw)."""
