@@ -379,12 +379,17 @@ def test_generated_hospitals_follow_the_rules_over_1000_seeds() -> None:
         assert geometry.polygon_clearance(area, walls) > 0.0
 
 
-def test_every_generated_episode_is_solvable_and_reproducible() -> None:
-    env = gym.make("PicoHospital-v0", n_boxes=(1, 3), closed_doors=(0, 2))
-    for seed in range(40):
+def test_every_generated_episode_is_solvable_over_1000_seeds() -> None:
+    env = gym.make("PicoHospital-v0", n_boxes=(1, 3), closed_doors=(0, 2), n_movers=(0, 2))
+    for seed in range(1000):
         _, info = env.reset(seed=seed)
-        assert math.isfinite(info["shortest_path_length"])
-        assert _reachable(env, info["task"].cabinet_order), seed
+        legs = env.unwrapped.episode.extra["legs"]
+        assert all(math.isfinite(leg) for leg in legs), (seed, legs)
+        if seed < 40:  # and checked independently of the env's own fields
+            assert _reachable(env, info["task"].cabinet_order), seed
+
+
+def test_generated_episodes_are_reproducible() -> None:
     a = gym.make("PicoHospital-v0", n_movers=(1, 1))
     b = gym.make("PicoHospital-v0", n_movers=(1, 1))
     for seed in (3, 4):
