@@ -94,6 +94,17 @@ def _add_env(p: argparse.ArgumentParser) -> None:
     p.add_argument("--env", default="PicoEscape-v0", choices=pico_gym.ENV_IDS, help="the environment id")
 
 
+def _add_workers(p: argparse.ArgumentParser) -> None:
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=int, default=None, help="local processes (default: one per core)")
+    where.add_argument(
+        "--ray",
+        metavar="ADDRESS",
+        help="run the episodes as Ray tasks on a cluster: 'auto' (the one this machine is in), "
+        "'ray://HEAD:10001', or 'local' (start Ray here); needs the ray extra",
+    )
+
+
 def _common(p: argparse.ArgumentParser) -> None:
     _add_env(p)
     p.add_argument("--agent", choices=AGENTS, default="classic", help="the agent")
@@ -180,7 +191,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
     seeds = range(args.seed, args.seed + args.episodes)
     with tqdm(total=args.episodes, desc=f"{args.agent}", unit="ep", file=sys.stderr, disable=args.quiet) as bar:
         records = run_episodes(
-            args.agent, seeds, options, _agent_kwargs(args, args.agent), args.workers, bar.update, args.env
+            args.agent, seeds, options, _agent_kwargs(args, args.agent), args.workers, bar.update, args.env, args.ray
         )
     summary = summarize(records)
     print(format_summary(args.agent, summary))
@@ -221,7 +232,7 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("bench", help="run seeded episodes with an agent and print the figures")
     _common(p)
     p.add_argument("--episodes", type=int, default=100, help="episodes, on seeds --seed, --seed + 1, ...")
-    p.add_argument("--workers", type=int, default=None, help="processes (default: one per core)")
+    _add_workers(p)
     p.add_argument("--json", help="write per-episode records and the summary as JSON")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_bench)
@@ -241,7 +252,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
     total = len(agents) * sum(len(seeds) for _, seeds in episodes.groups)
     kwargs = {a: _agent_kwargs(args, a) for a in agents}
     with tqdm(total=total, desc="compare", unit="ep", file=sys.stderr, disable=args.quiet) as bar:
-        summaries = compare(agents, episodes, args.out, kwargs, args.workers, args.trajectories, bar.update)
+        summaries = compare(agents, episodes, args.out, kwargs, args.workers, args.trajectories, bar.update, args.ray)
     print(markdown_table(summaries))
     print(
         f"wrote {args.out}/results.md, results.json, results.csv, success_times.png, success_bumps.png"
@@ -261,6 +272,6 @@ def add_compare(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="an env option (repeatable)")
     p.add_argument("--policy", help=POLICY_HELP)
     p.add_argument("--trajectories", type=int, default=3, help="rooms in trajectories.png (0: no figure)")
-    p.add_argument("--workers", type=int, default=None, help="processes (default: one per core)")
+    _add_workers(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_compare, map=None, map_path=None)

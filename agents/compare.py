@@ -96,6 +96,7 @@ def run_comparison(
     agent_kwargs: dict[str, dict[str, Any]] | None = None,
     workers: int | None = None,
     progress: Callable[[int], None] | None = None,
+    ray_address: str | None = None,
 ) -> dict[str, list[EpisodeRecord]]:
     """Every agent on every episode; records per agent in (group, seed) order."""
     agent_kwargs = agent_kwargs or {}
@@ -104,7 +105,14 @@ def run_comparison(
         records: list[EpisodeRecord] = []
         for map_name, seeds in episodes.groups:
             records += run_episodes(
-                name, seeds, episodes.env_kwargs(map_name), agent_kwargs.get(name), workers, progress, episodes.env_id
+                name,
+                seeds,
+                episodes.env_kwargs(map_name),
+                agent_kwargs.get(name),
+                workers,
+                progress,
+                episodes.env_id,
+                ray_address,
             )
         results[name] = records
     return results
@@ -285,6 +293,7 @@ def compare(
     workers: int | None = None,
     n_rooms: int = 3,
     progress: Callable[[int], None] | None = None,
+    ray_address: str | None = None,
 ) -> dict[str, Summary]:
     """Run, write results.{md,json,csv} and the plots into `out`; returns the summaries.
 
@@ -298,7 +307,7 @@ def compare(
     for name in agents:
         make_agent(name, probe, **(agent_kwargs or {}).get(name, {}))
     probe.close()
-    results = run_comparison(agents, episodes, agent_kwargs, workers, progress)
+    results = run_comparison(agents, episodes, agent_kwargs, workers, progress, ray_address)
     settings = {
         "agents": list(agents),
         "agent_kwargs": {k: {kk: str(vv) for kk, vv in v.items()} for k, v in (agent_kwargs or {}).items()},

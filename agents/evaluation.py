@@ -111,9 +111,15 @@ def run_episodes(
     workers: int | None = None,
     progress: Callable[[int], None] | None = None,
     env_id: str = DEFAULT_ENV_ID,
+    ray_address: str | None = None,
 ) -> list[EpisodeRecord]:
-    """Run an agent on seeded episodes of `env_id`, in parallel over the machine's cores; records in
-    seed order."""
+    """Run an agent on seeded episodes of `env_id`; records in seed order.
+
+    Episodes run in a local process pool of `workers` (default: one per core), or, with
+    `ray_address` ("auto" for the cluster this machine belongs to, "ray://HEAD:10001", or "local"
+    to start Ray here), as Ray tasks spread over a cluster. An episode is fixed by its seed, so
+    the records are the same either way (but for the measured compute time).
+    """
     seeds = list(seeds)
     env_kwargs = env_kwargs or {}
     agent_kwargs = agent_kwargs or {}
@@ -122,6 +128,8 @@ def run_episodes(
     chunk = max(1, min(10, len(seeds) // (4 * workers) or 1))
     jobs = [(env_id, agent_name, env_kwargs, agent_kwargs, seeds[i : i + chunk]) for i in range(0, len(seeds), chunk)]
     records: list[EpisodeRecord] = []
+    if ray_address is not None:
+        return sorted(_run_on_ray(jobs, ray_address, progress), key=lambda r: r.seed)
     if workers == 1:
         for job in jobs:
             records += _worker(job)
@@ -134,6 +142,32 @@ def run_episodes(
                 if progress:
                     progress(len(result))
     return sorted(records, key=lambda r: r.seed)
+
+
+def _run_on_ray(
+    jobs: list[tuple[str, str, dict[str, Any], dict[str, Any], list[int]]],
+    address: str,
+    progress: Callable[[int], None] | None,
+) -> list[EpisodeRecord]:
+    """The jobs as Ray tasks (one per chunk of seeds), gathered as they finish."""
+    try:
+        import ray
+    except ImportError as exc:
+        from gymnasium.error import DependencyNotInstalled
+
+        raise DependencyNotInstalled("--ray needs Ray: pip install 'pico-gym[ray]'") from exc
+    if not ray.is_initialized():
+        ray.init(address=None if address == "local" else address, log_to_driver=False)
+    task = ray.remote(_worker)
+    pending = {task.remote(job): len(job[4]) for job in jobs}
+    records: list[EpisodeRecord] = []
+    while pending:
+        done, _ = ray.wait(list(pending), num_returns=1)
+        for ref in done:
+            records += ray.get(ref)
+            if progress:
+                progress(pending.pop(ref))
+    return records
 
 
 @dataclass(frozen=True)
