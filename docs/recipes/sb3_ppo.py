@@ -1,6 +1,6 @@
 """Plain stable-baselines3 PPO on PicoEscape-v0 (no pico-gym training code involved).
 
-    python docs/recipes/sb3_ppo.py --timesteps 200000
+python docs/recipes/sb3_ppo.py --timesteps 200000
 """
 
 import argparse
