@@ -28,7 +28,11 @@ import pymunk
 from pico_gym.robot import RobotConfig
 from pico_gym.sensors.odometry import integrate_twist
 from pico_gym.types import Pose, Segments
+from pico_gym.validate import flag, number
 from pico_gym.world.scene import KINDS, MOVER, WALL, Scene
+
+# The free-space shortcut and contact handling assume sub-steps of at most this [s].
+MAX_SUBSTEP_S = 0.05
 
 _ROBOT = 1
 _KIND_BASE = 2  # collision type of kind k is _KIND_BASE + k
@@ -67,8 +71,32 @@ class PhysicsConfig:
     free_space_shortcut: bool = True
 
     def __post_init__(self) -> None:
-        if self.substep_s <= 0 or self.iterations < 1:
-            raise ValueError("PhysicsConfig: substep_s must be > 0 and iterations >= 1")
+        number("PhysicsConfig.substep_s", self.substep_s, 0.0, MAX_SUBSTEP_S, lo_open=True, unit=" s")
+        number("PhysicsConfig.iterations", self.iterations, 1, 1000, integer=True)
+        number("PhysicsConfig.contact_skin_m", self.contact_skin_m, 0.0, 0.05, lo_open=True, unit=" m")
+        number("PhysicsConfig.bump_debounce_s", self.bump_debounce_s, 0.0, 10.0, unit=" s")
+        number("PhysicsConfig.collision_slop_m", self.collision_slop_m, 0.0, 0.01, unit=" m")
+        number("PhysicsConfig.robot_mass_kg", self.robot_mass_kg, 0.1, 1000.0, unit=" kg")
+        number("PhysicsConfig.drive_force_n", self.drive_force_n, 1.0, 10_000.0, unit=" N")
+        number("PhysicsConfig.drive_torque_nm", self.drive_torque_nm, 0.1, 1000.0, unit=" N m")
+        flag("PhysicsConfig.free_space_shortcut", self.free_space_shortcut)
+
+    def check_solid(self, max_speed_mps: float, max_turn_rate_radps: float, circumradius_m: float) -> None:
+        """Refuse settings under which contacts could leak: within one sub-step no point of the
+        robot may move farther than the contact skin absorbs (see `contact_skin_m`).
+
+        Raises:
+            ValueError: naming the limit.
+        """
+        travel = (max_speed_mps + max_turn_rate_radps * circumradius_m) * self.substep_s
+        if travel > self.contact_skin_m + 1e-12:
+            limit = self.contact_skin_m / self.substep_s - max_turn_rate_radps * circumradius_m
+            raise ValueError(
+                f"walls are kept solid only while a point of the robot moves at most contact_skin_m = "
+                f"{self.contact_skin_m} m per sub-step of {self.substep_s} s; at max_speed_mps = {max_speed_mps} "
+                f"and max_turn_rate_radps = {max_turn_rate_radps} it moves {travel:.4f} m. Lower the speed "
+                f"(at most {limit:.3f} m/s here), or the sub-step, or raise the skin"
+            )
 
 
 class Physics:

@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from pico_gym.types import FloatArray
+from pico_gym.validate import number
 
 # The PICO outline in the robot frame (x forward, y left), counter-clockwise, metres
 # (pico-facts.md, "footprint"). The front notch makes it concave.
@@ -68,8 +69,16 @@ class RobotConfig:
     def __post_init__(self) -> None:
         if self.footprint not in ("outline", "rectangle"):
             raise ValueError(f"RobotConfig.footprint must be 'outline' or 'rectangle', got {self.footprint!r}")
-        if self.max_speed_mps <= 0 or self.max_turn_rate_radps <= 0:
-            raise ValueError("RobotConfig speed limits must be positive")
+        number("RobotConfig.max_speed_mps", self.max_speed_mps, 0.0, lo_open=True, unit=" m/s")
+        number("RobotConfig.max_turn_rate_radps", self.max_turn_rate_radps, 0.0, lo_open=True, unit=" rad/s")
+        for name in ("max_accel_mps2", "max_angular_accel_radps2"):
+            if getattr(self, name) is not None:
+                number(f"RobotConfig.{name}", getattr(self, name), 0.0, lo_open=True)
+        number("RobotConfig.wheel_distance_m", self.wheel_distance_m, 0.0, lo_open=True, unit=" m")
+        if not (isinstance(self.wheel_angles_rad, (tuple, list)) and len(self.wheel_angles_rad) == 3):
+            raise ValueError(f"RobotConfig.wheel_angles_rad must be 3 angles, got {self.wheel_angles_rad!r}")
+        for i, a in enumerate(self.wheel_angles_rad):
+            number(f"RobotConfig.wheel_angles_rad[{i}]", a)
 
     @property
     def outline(self) -> FloatArray:

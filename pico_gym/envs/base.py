@@ -26,6 +26,7 @@ from pico_gym.sensors.lrf import Lrf, LrfConfig
 from pico_gym.sensors.odometry import Odometry, OdometryConfig
 from pico_gym.tasks.base import BASE_OPTION_KEYS, Episode, IdleTimer, StepContext, Task, timed_out
 from pico_gym.types import Pose
+from pico_gym.validate import number
 from pico_gym.world import geometry
 from pico_gym.world.geometry import compose, inverse, wrap_angle
 from pico_gym.world.scene import KINDS, SceneSnapshot
@@ -59,8 +60,8 @@ class EnvConfig:
     task: Any = None
 
     def __post_init__(self) -> None:
-        if self.dt_s <= 0:
-            raise ValueError(f"dt_s must be positive, got {self.dt_s}")
+        number("dt_s", self.dt_s, 0.0, 1.0, lo_open=True, unit=" s")
+        self.physics.check_solid(self.robot.max_speed_mps, self.robot.max_turn_rate_radps, self.robot.circumradius_m)
         substeps = self.dt_s / self.physics.substep_s
         if abs(substeps - round(substeps)) > 1e-6:
             raise ValueError(

@@ -22,6 +22,7 @@ import numpy as np
 
 from pico_gym.jit import njit
 from pico_gym.types import FloatArray, Pose, Segments
+from pico_gym.validate import number
 
 # PICO's laser (emc_simulator, PICO era): 1000 beams, -2..2 rad, 0.01..10 m, U(-0.01, 0.01) noise.
 PICO_N_BEAMS = 1000
@@ -30,6 +31,9 @@ PICO_ANGLE_MAX_RAD = 2.0
 PICO_RANGE_MIN_M = 0.01
 PICO_RANGE_MAX_M = 10.0
 PICO_NOISE_M = 0.01
+# Budgets: beyond these a scan costs more memory and time than any use of this sensor model needs.
+MAX_BEAMS = 100_000
+MAX_RANGE_M = 1000.0
 
 # Tolerance (in the segment's own parameter) for a beam hitting a segment end point exactly, so a
 # beam grazing a corner shared by two segments is not lost between them.
@@ -60,8 +64,11 @@ class LrfConfig:
     no_hit: Literal["max", "zero"] = "max"
 
     def __post_init__(self) -> None:
-        if self.n_beams < 1:
-            raise ValueError(f"LrfConfig.n_beams must be >= 1, got {self.n_beams}")
+        number("LrfConfig.n_beams", self.n_beams, 1, MAX_BEAMS, integer=True)
+        for name in ("angle_min_rad", "angle_max_rad", "range_min_m", "range_max_m", "noise_m"):
+            number(f"LrfConfig.{name}", getattr(self, name))
+        number("LrfConfig.range_max_m", self.range_max_m, hi=MAX_RANGE_M, unit=" m")
+        number("LrfConfig.noise_m", self.noise_m, hi=1.0, unit=" m")
         if not self.angle_max_rad >= self.angle_min_rad:
             raise ValueError("LrfConfig.angle_max_rad must be >= angle_min_rad")
         if self.angle_max_rad - self.angle_min_rad >= 2.0 * math.pi:

@@ -16,6 +16,7 @@ import numpy as np
 
 from pico_gym.robot import RobotConfig
 from pico_gym.types import FloatArray, Pose
+from pico_gym.validate import flag, number
 from pico_gym.world.geometry import wrap_angle
 
 # emc_simulator: true wheel speed = commanded * (1 + U(-0.002, 0.002)), factors redrawn every
@@ -45,8 +46,10 @@ class OdometryConfig:
     random_start: bool = False
 
     def __post_init__(self) -> None:
-        if self.wheel_noise < 0 or self.slip_std < 0 or self.wheel_noise_interval_s <= 0:
-            raise ValueError("OdometryConfig: noise levels must be >= 0 and the interval > 0")
+        number("OdometryConfig.wheel_noise", self.wheel_noise, 0.0, 0.5)
+        number("OdometryConfig.slip_std", self.slip_std, 0.0, 0.5)
+        number("OdometryConfig.wheel_noise_interval_s", self.wheel_noise_interval_s, 0.0, lo_open=True, unit=" s")
+        flag("OdometryConfig.random_start", self.random_start)
 
 
 def wheel_matrix(robot: RobotConfig) -> FloatArray:

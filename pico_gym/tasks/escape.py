@@ -17,6 +17,7 @@ from pico_gym.robot import RobotConfig
 from pico_gym.sensors.lrf import lrf_ranges
 from pico_gym.tasks.base import IDLE_TIME_S, Episode, GeodesicProgress, IdleRule, StepContext, StepOutcome
 from pico_gym.types import FloatArray, Pose
+from pico_gym.validate import flag, number
 from pico_gym.world import geometry
 from pico_gym.world.escape_room import EscapeRoomConfig, generate_escape_room, sample_start_pose
 from pico_gym.world.grid import GeodesicField, Grid, geodesic_field
@@ -60,9 +61,10 @@ class RewardWeights:
     approach_m: float = 0.25
 
     def __post_init__(self) -> None:
+        for name in ("progress", "success", "bump", "time", "proximity", "approach"):
+            number(f"RewardWeights.{name}", getattr(self, name))
         for name in ("proximity_m", "approach_m"):
-            if getattr(self, name) <= 0:
-                raise ValueError(f"RewardWeights.{name} must be positive, got {getattr(self, name)}")
+            number(f"RewardWeights.{name}", getattr(self, name), 0.0, lo_open=True, unit=" m")
 
 
 @dataclass(frozen=True)
@@ -98,8 +100,13 @@ class EscapeTaskConfig:
     def __post_init__(self) -> None:
         if self.collision not in ("terminate", "continue"):
             raise ValueError(f"collision must be 'terminate' or 'continue', got {self.collision!r}")
-        if self.time_limit_s <= 0 or self.idle_time_s <= 0:
-            raise ValueError("time_limit_s and idle_time_s must be positive")
+        number("EscapeTaskConfig.time_limit_s", self.time_limit_s, 0.0, 1e6, lo_open=True, unit=" s")
+        number("EscapeTaskConfig.idle_time_s", self.idle_time_s, 0.0, 1e6, lo_open=True, unit=" s")
+        number("EscapeTaskConfig.idle_speed_mps", self.idle_speed_mps, 0.0, unit=" m/s")
+        number("EscapeTaskConfig.idle_turn_rate_radps", self.idle_turn_rate_radps, 0.0, unit=" rad/s")
+        number("EscapeTaskConfig.start_clearance_m", self.start_clearance_m, 0.0, 1.0, unit=" m")
+        number("EscapeTaskConfig.geodesic_resolution_m", self.geodesic_resolution_m, 0.01, 0.5, unit=" m")
+        flag("EscapeTaskConfig.sample_start", self.sample_start)
 
     @property
     def idle_rule(self) -> IdleRule:

@@ -20,6 +20,7 @@ import numpy as np
 from pico_gym.robot import RobotConfig
 from pico_gym.tasks.base import IDLE_TIME_S, Episode, GeodesicProgress, IdleRule, StepContext, StepOutcome
 from pico_gym.types import FloatArray, Pose, Segments
+from pico_gym.validate import number
 from pico_gym.world import geometry
 from pico_gym.world.grid import CostGrid, Grid, clearance_grid
 from pico_gym.world.hospital import HospitalConfig, cabinets_of, generate_hospital
@@ -126,10 +127,14 @@ class HospitalTaskConfig:
         lo, hi = self.box_side_m
         if not 0 < lo <= hi:
             raise ValueError(f"box_side_m must be a range (lo, hi) with 0 < lo <= hi, got {self.box_side_m}")
-        for name in ("dwell_s", "time_limit_s", "idle_time_s", "geodesic_resolution_m"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value > 0):
-                raise ValueError(f"{name} must be a positive number, got {value!r}")
+        for name in ("dwell_s", "time_limit_s", "idle_time_s"):
+            number(f"HospitalTaskConfig.{name}", getattr(self, name), 0.0, 1e6, lo_open=True, unit=" s")
+        number("HospitalTaskConfig.geodesic_resolution_m", self.geodesic_resolution_m, 0.02, 0.5, unit=" m")
+        for name in ("dwell_speed_mps", "dwell_turn_rate_radps", "idle_speed_mps", "idle_turn_rate_radps"):
+            number(f"HospitalTaskConfig.{name}", getattr(self, name), 0.0)
+        number("HospitalTaskConfig.start_clearance_m", self.start_clearance_m, 0.0, 1.0, unit=" m")
+        number("HospitalTaskConfig.n_boxes[1]", self.n_boxes[1], 0, 20, integer=True)
+        number("HospitalTaskConfig.n_movers[1]", self.n_movers[1], 0, 20, integer=True)
         if not 0 < self.facing_tolerance_rad < math.pi:
             raise ValueError(f"facing_tolerance_rad must be in (0, pi), got {self.facing_tolerance_rad}")
 

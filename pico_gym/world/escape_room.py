@@ -20,8 +20,11 @@ import numpy as np
 
 from pico_gym.robot import RobotConfig
 from pico_gym.types import FloatArray, Pose, Segments
+from pico_gym.validate import number, span
 from pico_gym.world import geometry
 from pico_gym.world.map import Map
+
+MAX_ROOM_SIDE_M = 30.0
 
 
 @dataclass(frozen=True)
@@ -55,6 +58,19 @@ class EscapeRoomConfig:
     start_clearance_m: float = 0.05
 
     def __post_init__(self) -> None:
+        # Budget: a room side beyond this makes the geodesic grid and the generator's checks
+        # cost more memory than any escape room needs (the course's rooms are 2.5-7 m).
+        span("EscapeRoomConfig.room_side_m", self.room_side_m, 1.0, MAX_ROOM_SIDE_M)
+        span("EscapeRoomConfig.corridor_width_m", self.corridor_width_m, 0.0, 5.0)
+        span("EscapeRoomConfig.finish_depth_m", self.finish_depth_m, 0.0, 20.0)
+        span("EscapeRoomConfig.corridor_extra_m", self.corridor_extra_m, 0.0, 5.0)
+        span("EscapeRoomConfig.obstacle_side_m", self.obstacle_side_m, 0.01, 2.0)
+        number("EscapeRoomConfig.corner_exit_probability", self.corner_exit_probability, 0.0, 1.0)
+        number("EscapeRoomConfig.corner_jitter_m", self.corner_jitter_m, 0.0, 0.2)
+        number("EscapeRoomConfig.wall_bend_m", self.wall_bend_m, 0.0, 0.2)
+        number("EscapeRoomConfig.corridor_tilt_rad", self.corridor_tilt_rad, 0.0, 0.2)
+        number("EscapeRoomConfig.n_obstacles", self.n_obstacles, 0, 50, integer=True)
+        number("EscapeRoomConfig.start_clearance_m", self.start_clearance_m, 0.0, 1.0)
         if self.corridor_width_m[0] < 0.5:
             raise ValueError("EscapeRoomConfig.corridor_width_m must start at >= 0.5 m (the challenge's rule)")
         if self.finish_depth_m[0] <= 3.0:
