@@ -157,17 +157,23 @@ def _run_on_ray(
 
         raise DependencyNotInstalled("--ray needs Ray: pip install 'pico-gym[ray]'") from exc
     if not ray.is_initialized():
-        ray.init(address=None if address == "local" else address, log_to_driver=False)
-    task = ray.remote(_worker)
+        ray.init(address=None if address == "local" else address)
+    task = ray.remote(_worker_as_dicts)
     pending = {task.remote(job): len(job[4]) for job in jobs}
     records: list[EpisodeRecord] = []
     while pending:
         done, _ = ray.wait(list(pending), num_returns=1)
         for ref in done:
-            records += ray.get(ref)
+            records += [EpisodeRecord(**d) for d in ray.get(ref)]
+            n = pending.pop(ref)
             if progress:
-                progress(pending.pop(ref))
+                progress(n)
     return records
+
+
+def _worker_as_dicts(job: tuple[str, str, dict[str, Any], dict[str, Any], list[int]]) -> list[dict[str, Any]]:
+    """`_worker` returning plain dicts: what crosses a cluster does not depend on pico-gym's classes."""
+    return [r.to_dict() for r in _worker(job)]
 
 
 @dataclass(frozen=True)

@@ -39,10 +39,17 @@ def test_course_heightmaps_load(name: str) -> None:
 def test_heightmap_doors_and_low_pixels() -> None:
     world = load_map(REFERENCE_MAPS / "doors_example_2015.png")
     assert len(world.door_segments) == 4
-    # er_large2 has near-white pixels (248-254): too low for the laser, still solid.
+    # er_large2 has near-white pixels (248-254): a user who drew the map means them as floor
+    # (occupancy below ROS map_server's free threshold 0.1), so nothing invisible is left to bump.
     large2 = load_map(REFERENCE_MAPS / "er_large2_student_2019.png")
-    assert len(large2.low_segments) > 0
-    assert len(large2.solid_segments()) == len(large2.wall_segments) + len(large2.low_segments)
+    assert len(large2.low_segments) == 0
+    # Between the free threshold and the laser plane a pixel is solid but unseen, as in the course.
+    grey = np.full((20, 20), 255, dtype=np.uint8)
+    grey[5, 5] = 229  # occupancy 0.102: solid, 0.10 m tall: under the laser
+    grey[10, 10] = 230  # occupancy 0.098: floor
+    grey[15, 15] = 20  # 0.92 m tall: seen (51-204 would be door grey)
+    geo = heightmap_geometry(grey, 0.025, None)
+    assert len(geo.low) == 4 and len(geo.visible) == 4
 
 
 def test_heightmap_placements() -> None:

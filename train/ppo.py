@@ -125,21 +125,49 @@ def load_config(path: str | Path, env_id: str = "PicoEscape-v0") -> TrainConfig:
     return config
 
 
+# The activations a config may name as nn.<Name> in policy_kwargs.
+ACTIVATIONS = ("ReLU", "Tanh", "ELU", "LeakyReLU", "GELU", "SiLU", "Sigmoid")
+
+
 def _policy_kwargs(text: str | dict[str, Any] | None, source: str) -> dict[str, Any]:
-    """rl-zoo3 writes policy_kwargs as a Python expression, e.g. "dict(net_arch=[64, 64])"."""
+    """rl-zoo3 writes policy_kwargs as a Python expression, e.g. "dict(net_arch=[64, 64])".
+
+    It is parsed as data, never evaluated: literals, `dict(key=value, ...)` and `nn.<Activation>`
+    (one of ACTIVATIONS) only.
+    """
     if text is None:
         return {}
     if isinstance(text, dict):
         return text
-    import torch
+    import ast
+
+    def value(node: ast.AST) -> Any:
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "dict" and not node.args:
+            return {kw.arg: value(kw.value) for kw in node.keywords if kw.arg is not None}
+        if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) and node.value.id == "nn":
+            if node.attr not in ACTIVATIONS:
+                raise ValueError(f"nn.{node.attr} is not one of the allowed activations {ACTIVATIONS}")
+            import torch
+
+            return getattr(torch.nn, node.attr)
+        if isinstance(node, ast.Dict):
+            return {value(k): value(v) for k, v in zip(node.keys, node.values, strict=True)}
+        if isinstance(node, (ast.List, ast.Tuple)):
+            items = [value(e) for e in node.elts]
+            return items if isinstance(node, ast.List) else tuple(items)
+        if isinstance(node, ast.Constant):
+            return node.value
+        if isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.USub) and isinstance(node.operand, ast.Constant):
+            return -node.operand.value
+        raise ValueError(f"{ast.unparse(node)!r} is not data (literals, dict(...), nn.<Activation>)")
 
     try:
-        value = eval(text, {"__builtins__": {}}, {"dict": dict, "nn": torch.nn})  # trusted config file
-    except Exception as exc:
-        raise ConfigError(f"{source}: policy_kwargs {text!r} does not evaluate ({exc})") from None
-    if not isinstance(value, dict):
-        raise ConfigError(f"{source}: policy_kwargs must give a dict, got {value!r}")
-    return value
+        parsed = value(ast.parse(text, mode="eval").body)
+    except (SyntaxError, ValueError) as exc:
+        raise ConfigError(f"{source}: policy_kwargs {text!r}: {exc}") from None
+    if not isinstance(parsed, dict):
+        raise ConfigError(f"{source}: policy_kwargs must give a dict, got {parsed!r}")
+    return parsed
 
 
 # --- envs -----------------------------------------------------------------------------------

@@ -2,9 +2,11 @@
 
 A heightmap is a grey image at 0.025 m per pixel in which a pixel's value is its height, as in the
 course simulator (emc_simulator, src/heightmap.cpp): 255 is free floor, any lower value is an
-obstacle (255 - v) / 255 m tall, so a pixel of value 0 is a 1 m block. Pixels lower than the
-laser plane (0.3 m) are solid but invisible to the LRF. 4-connected blobs of grey 51..204 are
-doors. Pixel edges between obstacle and floor are merged into long axis-aligned segments.
+obstacle (255 - v) / 255 m tall, so a pixel of value 0 is a 1 m block, except that near-white
+pixels whose occupancy (255 - v) / 255 is below 0.1 (v >= 230, ROS map_server's free threshold,
+which the course simulator later adopted) are floor: a user who drew a map means those specks as
+floor. Pixels lower than the laser plane (0.3 m) are solid but invisible to the LRF. 4-connected
+blobs of grey 51..204 are doors. Pixel edges between obstacle and floor are merged into long axis-aligned segments.
 """
 
 from __future__ import annotations
@@ -14,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from pico_gym.jit import njit
 from pico_gym.types import Segments
 
 # Course simulator facts (emc_simulator heightmap.cpp): 0.025 m per pixel, blocks 1 m tall for
@@ -24,6 +27,13 @@ DOOR_GREY_MIN = 51
 DOOR_GREY_MAX = 204
 # pico-facts.md: the LRF is mounted 0.3 m above the floor; lower objects are not seen.
 LASER_PLANE_HEIGHT_M = 0.3
+# ROS map_server's free threshold (occupancy below it is free), which the course simulator later
+# adopted: pixel values 230-255 are floor.
+FREE_OCCUPANCY = 0.1
+# Budgets: an image larger than this (100 x 100 m at the course's 0.025 m), or with more door
+# blobs, is refused with an error instead of exhausting memory.
+MAX_IMAGE_PIXELS = 16_000_000
+MAX_DOOR_BLOBS = 1000
 
 
 class ImageError(ValueError):
@@ -51,13 +61,18 @@ def read_grey(path: Path) -> np.ndarray:
 
     try:
         with Image.open(path) as image:
+            if image.width * image.height > MAX_IMAGE_PIXELS:
+                raise ImageError(
+                    f"{image.width} x {image.height} pixels; the limit is {MAX_IMAGE_PIXELS:,} "
+                    f"(100 x 100 m at {COURSE_RESOLUTION_M} m per pixel)"
+                )
             image.load()
             if image.mode in ("RGBA", "LA", "PA") or (image.mode == "P" and "transparency" in image.info):
                 rgba = image.convert("RGBA")
                 white = Image.new("RGBA", rgba.size, (255, 255, 255, 255))
                 image = Image.alpha_composite(white, rgba)
             grey = np.asarray(image.convert("L"), dtype=np.uint8)
-    except (UnidentifiedImageError, OSError, SyntaxError) as error:
+    except (UnidentifiedImageError, OSError, SyntaxError, Image.DecompressionBombError) as error:
         raise ImageError(f"not a readable image ({error})") from error
     return grey
 
@@ -218,27 +233,58 @@ def _simplified_segments(solid: np.ndarray, tolerance_px: float) -> np.ndarray:
     return np.vstack(out)
 
 
-def _door_blobs(grey: np.ndarray) -> list[np.ndarray]:
-    """Boolean masks of the 4-connected blobs of door grey."""
+@njit
+def _label_blobs(mask: np.ndarray) -> tuple[np.ndarray, int]:
+    """4-connected components of a boolean image in one pass: (labels 1..n, 0 elsewhere; n)."""
+    h, w = mask.shape
+    labels = np.zeros((h, w), dtype=np.int32)
+    stack = np.empty(h * w, dtype=np.int64)
+    n = 0
+    for r0 in range(h):
+        for c0 in range(w):
+            if not mask[r0, c0] or labels[r0, c0]:
+                continue
+            n += 1
+            labels[r0, c0] = n
+            top = 1
+            stack[0] = r0 * w + c0
+            while top > 0:
+                top -= 1
+                r, c = stack[top] // w, stack[top] % w
+                for dr, dc in ((1, 0), (-1, 0), (0, 1), (0, -1)):
+                    rr, cc = r + dr, c + dc
+                    if 0 <= rr < h and 0 <= cc < w and mask[rr, cc] and not labels[rr, cc]:
+                        labels[rr, cc] = n
+                        stack[top] = rr * w + cc
+                        top += 1
+    return labels, n
+
+
+def _door_blobs(grey: np.ndarray) -> list[tuple[int, int, np.ndarray]]:
+    """The 4-connected blobs of door grey, each as (row0, col0, its mask within its bounding box).
+
+    Raises:
+        ImageError: beyond MAX_DOOR_BLOBS blobs (a budget: each becomes a door of its own).
+    """
     door = (grey >= DOOR_GREY_MIN) & (grey <= DOOR_GREY_MAX)
-    labels = np.zeros(grey.shape, dtype=np.int32)
+    if not door.any():
+        return []
+    labels, n = _label_blobs(door)
+    if n > MAX_DOOR_BLOBS:
+        raise ImageError(f"{n} door blobs (grey {DOOR_GREY_MIN}-{DOOR_GREY_MAX}); the limit is {MAX_DOOR_BLOBS}")
+    rows, cols = np.nonzero(labels)
+    ids = labels[rows, cols]
+    order = np.argsort(ids, kind="stable")
+    rows, cols, ids = rows[order], cols[order], ids[order]
+    starts = np.searchsorted(ids, np.arange(1, n + 1))
+    ends = np.append(starts[1:], len(ids))
     blobs = []
-    h, w = grey.shape
-    for r0, c0 in zip(*np.nonzero(door), strict=True):
-        if labels[r0, c0]:
-            continue
-        label = len(blobs) + 1
-        stack = [(r0, c0)]
-        labels[r0, c0] = label
-        pixels = []
-        while stack:
-            r, c = stack.pop()
-            pixels.append((r, c))
-            for rr, cc in ((r + 1, c), (r - 1, c), (r, c + 1), (r, c - 1)):
-                if 0 <= rr < h and 0 <= cc < w and door[rr, cc] and not labels[rr, cc]:
-                    labels[rr, cc] = label
-                    stack.append((rr, cc))
-        blobs.append(labels == label)
+    for k in range(n):
+        r, c = rows[starts[k] : ends[k]], cols[starts[k] : ends[k]]
+        r0, c0 = int(r.min()), int(c.min())
+        mask = np.zeros((int(r.max()) - r0 + 1, int(c.max()) - c0 + 1), dtype=bool)
+        mask[r - r0, c - c0] = True
+        blobs.append((r0, c0, mask))
     return blobs
 
 
@@ -247,6 +293,7 @@ def heightmap_geometry(
     resolution_m: float = COURSE_RESOLUTION_M,
     origin: tuple[float, float] | None = None,
     simplify_m: float | None = None,
+    free_occupancy: float = FREE_OCCUPANCY,
 ) -> HeightmapGeometry:
     """Convert a grey heightmap into wall segments in the map frame.
 
@@ -259,15 +306,18 @@ def heightmap_geometry(
         simplify_m: None keeps every pixel edge (merged into straight runs); a distance fits the
             pixel staircases of curved or slanted outlines with segments within that distance of
             the pixel outline (fewer segments: a faster LRF).
+        free_occupancy: pixels whose occupancy (255 - v) / 255 is below this are floor.
 
     Returns:
         The visible, low and door segments.
     """
     rows, cols = grey.shape
     doors = _door_blobs(grey)
-    obstacle = grey < 255
-    for blob in doors:
-        obstacle &= ~blob
+    # A pixel is floor when its occupancy (255 - v) / 255 is below `free_occupancy` (ROS map_server's
+    # free threshold, which the course simulator later adopted): near-white specks are floor.
+    obstacle = (255.0 - grey.astype(np.float64)) / 255.0 >= free_occupancy
+    for r0, c0, mask in doors:
+        obstacle[r0 : r0 + mask.shape[0], c0 : c0 + mask.shape[1]] &= ~mask
     height = (255.0 - grey.astype(np.float64)) / 255.0 * BLOCK_HEIGHT_M
     visible = obstacle & (height >= LASER_PLANE_HEIGHT_M)
     low = obstacle & ~visible
@@ -294,5 +344,5 @@ def heightmap_geometry(
     return HeightmapGeometry(
         visible=to_world(outline(visible)),
         low=to_world(outline(low)),
-        doors=tuple(to_world(_boundary_segments(blob)) for blob in doors),
+        doors=tuple(to_world(_boundary_segments(mask) + [c0, r0, c0, r0]) for r0, c0, mask in doors),
     )
