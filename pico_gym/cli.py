@@ -274,6 +274,55 @@ def cmd_bench_env(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_bench_walls(args: argparse.Namespace) -> int:
+    """Adversarial driving: full speed, spinning, into walls and corners; counts overlaps of the true
+    footprint with anything solid (there must be none: walls are solid at every accepted setting)."""
+    import gymnasium as gym
+
+    import pico_gym  # noqa: F401
+    from pico_gym.world.catalog import shipped_maps
+    from pico_gym.world.geometry import footprint_clearance
+
+    rng = np.random.default_rng(args.seed)
+    maps = [None] + [m for m in shipped_maps() if m.startswith("escape")]
+    steps = overlaps = 0
+    worst = 0.0
+    t0 = time.perf_counter()
+    per_setting = max(1, args.steps // (len(maps) * 4))
+    print(f"machine : {_machine()}")
+    for map_name in maps:
+        for speed in (0.5, 0.6, 0.7, 0.73):  # up to the highest speed the default physics accepts
+            kwargs = {"collision": "continue", "max_speed_mps": speed, "time_limit_s": 1e5, "idle_time_s": 1e5}
+            if map_name:
+                kwargs.update(map=map_name, sample_start=True)
+            env = gym.make("PicoEscape-v0", **kwargs)
+            env.reset(seed=int(rng.integers(1 << 30)))
+            outline = env.unwrapped.config.robot.outline
+            high = env.action_space.high
+            done = 0
+            while done < per_setting:
+                # Hold one full-speed command (drive and spin) for 0.5-3 s, into whatever is there.
+                action = high * rng.choice([-1.0, 1.0], size=3) * rng.choice([0.0, 1.0], size=3, p=[0.2, 0.8])
+                for _ in range(int(rng.integers(5, 30))):
+                    _, _, terminated, truncated, info = env.step(action)
+                    pose = env.unwrapped.pose
+                    solid = env.unwrapped.scene.static_solid
+                    clearance = footprint_clearance(pose.x, pose.y, pose.theta, outline, solid, 0.05)
+                    steps += 1
+                    done += 1
+                    if clearance <= 0.0:
+                        overlaps += 1
+                    worst = max(worst, 0.0 if clearance > 0 else 1.0)
+                    if terminated or truncated:
+                        env.reset(seed=int(rng.integers(1 << 30)))
+                        break
+            env.close()
+    rate = steps / (time.perf_counter() - t0)
+    print(f"adversarial driving: {steps:,} steps over {len(maps)} maps x 4 speeds ({rate:,.0f} steps/s)")
+    print(f"true footprint overlapping something solid: {overlaps} steps")
+    return 0 if overlaps == 0 else 1
+
+
 # --- entry point ----------------------------------------------------------------------------
 
 
@@ -315,6 +364,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--repeats", type=int, default=5, help="runs per figure (the median is printed)")
     p.add_argument("--seed", type=int, default=0, help="seed of the envs and the random actions")
     p.set_defaults(func=cmd_bench_env)
+
+    p = sub.add_parser("bench-walls", help="adversarial driving: count overlaps of the true footprint with walls")
+    p.add_argument("--steps", type=int, default=1_000_000, help="env steps in total")
+    p.add_argument("--seed", type=int, default=0, help="seed of the rooms and the commands")
+    p.set_defaults(func=cmd_bench_walls)
 
     # Sub-commands of packages built on pico_gym (agents, training) register themselves here.
     for entry in entry_points(group="pico_gym.commands"):

@@ -81,3 +81,9 @@ def test_bench_env_prints_all_figures(capsys: pytest.CaptureFixture[str]) -> Non
 def test_clutter_scene_has_the_asked_segment_count() -> None:
     for n in (20, 100, 400):
         assert clutter_scene(n).shape == (n, 4)
+
+
+def test_bench_walls_counts_overlaps_of_the_true_footprint(capsys: pytest.CaptureFixture[str]) -> None:
+    main(["bench-walls", "--steps", "600"])
+    out = capsys.readouterr().out
+    assert "adversarial driving:" in out and "true footprint overlapping something solid:" in out

@@ -94,7 +94,10 @@ class Map:
         except ImageError as error:
             raise MapError(f"{where}: heightmap.image {path}: {error}") from error
         hm = self.heightmap
-        return heightmap_geometry(grey, hm.resolution, hm.origin, hm.simplify_m)
+        try:
+            return heightmap_geometry(grey, hm.resolution, hm.origin, hm.simplify_m)
+        except ImageError as error:
+            raise MapError(f"{where}: heightmap.image {path}: {error}") from None
 
     def _index_segments(self, pairs: np.ndarray) -> Segments:
         pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
