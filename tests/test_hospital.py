@@ -136,18 +136,7 @@ def test_mover_ping_pongs_with_repeat_and_stops_without() -> None:
 
 def test_a_standing_robot_is_never_hit_by_a_mover() -> None:
     # A cart driving straight at the robot standing in the hallway, as in the 2021 config.
-    cart = {
-        "length": 1.0,
-        "width": 0.5,
-        "trigger_radius": 10.0,
-        "velocity": 0.6,
-        "init_pose": [3.5, 1.0, 1.5708],
-        "final_pose": [3.5, 6.0, 1.5708],
-        "repeat": False,
-    }
-    data = json.loads(load_shipped("hospital_2019").source.read_text())
-    data["movers"] = [cart]
-    env = gym.make("PicoHospital-v0", map=_map_from(data), **QUIET)
+    env = gym.make("PicoHospital-v0", map=_hospital_with([CART]), **QUIET)
     env.reset(seed=0, options={"cabinet_order": [3], "start_pose": (3.5, 3.0, 0.0)})
     info = stand(env, 400)
     assert info["bumps"] == 0 and info["termination_reason"] == "idle"
@@ -155,9 +144,24 @@ def test_a_standing_robot_is_never_hit_by_a_mover() -> None:
     assert 3.0 - cart_y >= PERSON.pause_radius_m - 0.05  # it waits outside its pause radius
 
 
-def _map_from(data: dict):
+# A cart driving up the 2019 hallway (x = 3.5), as the 2021 config's cart does.
+CART = {
+    "length": 1.0,
+    "width": 0.5,
+    "trigger_radius": 10.0,
+    "velocity": 0.6,
+    "init_pose": [3.5, 1.0, 1.5708],
+    "final_pose": [3.5, 6.0, 1.5708],
+    "repeat": False,
+}
+
+
+def _hospital_with(movers: list[dict]):
+    """hospital_2019 with these movers."""
     from pico_gym.world.map import map_from_dict
 
+    data = json.loads(load_shipped("hospital_2019").source.read_text())
+    data["movers"] = movers
     return map_from_dict(data, load_shipped("hospital_2019").source)
 
 
@@ -335,18 +339,7 @@ def test_box_and_mover_bumps_are_counted_as_such() -> None:
             break
     assert info["bumps_by_kind"]["box"] >= 1
     # A mover: a cart driving across the robot's path while the robot drives into it.
-    cart = {
-        "length": 1.0,
-        "width": 0.5,
-        "trigger_radius": 10.0,
-        "velocity": 0.6,
-        "init_pose": [3.5, 1.0, 1.5708],
-        "final_pose": [3.5, 6.0, 1.5708],
-        "repeat": False,
-    }
-    data = json.loads(load_shipped("hospital_2019").source.read_text())
-    data["movers"] = [cart]
-    env = gym.make("PicoHospital-v0", map=_map_from(data), collision="continue", **QUIET)
+    env = gym.make("PicoHospital-v0", map=_hospital_with([CART]), collision="continue", **QUIET)
     env.reset(seed=0, options={"cabinet_order": [3], "start_pose": (3.5, 3.0, -UP)})
     for _ in range(40):
         *_, info = env.step(np.array([0.4, 0.0, 0.0]))

@@ -10,6 +10,7 @@ differs between challenges: the episode's scene and start, success, reward terms
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -29,6 +30,7 @@ from pico_gym.types import Pose
 from pico_gym.validate import number
 from pico_gym.world import geometry
 from pico_gym.world.geometry import compose, inverse, wrap_angle
+from pico_gym.world.map import Map
 from pico_gym.world.scene import KINDS, SceneSnapshot
 
 # Clearance is computed exactly up to this distance; farther reads as this value [m].
@@ -81,6 +83,18 @@ class EnvConfig:
         if base.task is None and task is not None:
             base = EnvConfig(base.dt_s, base.robot, base.lrf, base.odometry, base.physics, task)
         return with_overrides(base, **overrides)
+
+
+def resolve_map(map_name: str | Map | None, map_path: str | os.PathLike[str] | None) -> Map | None:
+    """The fixed map an env was asked for: a shipped map's name (or a `Map`), a file, or None."""
+    from pico_gym.world.catalog import load_shipped
+    from pico_gym.world.map import load_map
+
+    if map_name is not None and map_path is not None:
+        raise ValueError("give map= (a shipped map's name) or map_path= (a file), not both")
+    if map_path is not None:
+        return load_map(map_path)
+    return load_shipped(map_name) if isinstance(map_name, str) else map_name
 
 
 class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):

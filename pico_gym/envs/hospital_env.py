@@ -5,10 +5,9 @@ from __future__ import annotations
 import os
 from typing import Any
 
-from pico_gym.envs.base import EnvConfig, PicoEnv
+from pico_gym.envs.base import EnvConfig, PicoEnv, resolve_map
 from pico_gym.tasks.hospital import HospitalTask, HospitalTaskConfig, HospitalTaskSpec
-from pico_gym.world.catalog import load_shipped
-from pico_gym.world.map import Map, load_map
+from pico_gym.world.map import Map
 
 
 class PicoHospitalEnv(PicoEnv):
@@ -106,11 +105,7 @@ class PicoHospitalEnv(PicoEnv):
         config: EnvConfig | None = None,
         **options: Any,
     ) -> None:
-        if map is not None and map_path is not None:
-            raise ValueError("give map= (a shipped map's name) or map_path= (a file), not both")
-        fixed = load_shipped(map) if isinstance(map, str) else map
-        if map_path is not None:
-            fixed = load_map(map_path)
+        fixed = resolve_map(map, map_path)
         env_config = EnvConfig.make(config, task=HospitalTaskConfig(), **options)
         if not isinstance(env_config.task, HospitalTaskConfig):
             raise TypeError(f"PicoHospital-v0 needs a HospitalTaskConfig, got {type(env_config.task).__name__}")

@@ -150,6 +150,25 @@ class Episode:
         return self.scene.map
 
 
+class ConfiguredTask:
+    """What a task whose config carries `idle_rule` and `time_limit_s` shares with every such task."""
+
+    config: Any
+
+    @property
+    def idle_rule(self) -> IdleRule:
+        return self.config.idle_rule
+
+    @property
+    def time_limit_s(self) -> float:
+        return self.config.time_limit_s
+
+    @property
+    def action_extras(self) -> tuple[np.ndarray, np.ndarray]:
+        """No action components beyond the twist (override to add some)."""
+        return np.zeros(0), np.zeros(0)
+
+
 class Task(Protocol):
     """What the step template needs from a challenge."""
 

@@ -15,7 +15,15 @@ import numpy as np
 from pico_gym.jit import njit
 from pico_gym.robot import RobotConfig
 from pico_gym.sensors.lrf import lrf_ranges
-from pico_gym.tasks.base import IDLE_TIME_S, Episode, GeodesicProgress, IdleRule, StepContext, StepOutcome
+from pico_gym.tasks.base import (
+    IDLE_TIME_S,
+    ConfiguredTask,
+    Episode,
+    GeodesicProgress,
+    IdleRule,
+    StepContext,
+    StepOutcome,
+)
 from pico_gym.types import FloatArray, Pose
 from pico_gym.validate import flag, number
 from pico_gym.world import geometry
@@ -163,7 +171,7 @@ def _closeness(clearance_m: float, within_m: float) -> float:
     return max(0.0, 1.0 - clearance_m / within_m)
 
 
-class EscapeTask:
+class EscapeTask(ConfiguredTask):
     """Spawning, success, reward terms and termination for the escape room (a `Task`)."""
 
     termination_reasons = TERMINATION_REASONS
@@ -181,18 +189,6 @@ class EscapeTask:
         self._finish_point = np.zeros(2)
         self._finish_normal = np.zeros(2)
         self._progress: GeodesicProgress | None = None
-
-    @property
-    def idle_rule(self) -> IdleRule:
-        return self.config.idle_rule
-
-    @property
-    def time_limit_s(self) -> float:
-        return self.config.time_limit_s
-
-    @property
-    def action_extras(self) -> tuple[np.ndarray, np.ndarray]:
-        return np.zeros(0), np.zeros(0)
 
     # --- reset -------------------------------------------------------------------------
     def new_episode(

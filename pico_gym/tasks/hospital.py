@@ -18,7 +18,15 @@ from typing import Any, Literal
 import numpy as np
 
 from pico_gym.robot import RobotConfig
-from pico_gym.tasks.base import IDLE_TIME_S, Episode, GeodesicProgress, IdleRule, StepContext, StepOutcome
+from pico_gym.tasks.base import (
+    IDLE_TIME_S,
+    ConfiguredTask,
+    Episode,
+    GeodesicProgress,
+    IdleRule,
+    StepContext,
+    StepOutcome,
+)
 from pico_gym.types import FloatArray, Pose, Segments
 from pico_gym.validate import number
 from pico_gym.world import geometry
@@ -173,7 +181,7 @@ def given_map(world: Map) -> Map:
     return replace(world, obstacles=(), movers=(), extra={k: v for k, v in world.extra.items() if k != "movers"})
 
 
-class HospitalTask:
+class HospitalTask(ConfiguredTask):
     """Spawning, arrivals, reward terms and termination for the hospital (a `Task`).
 
     Reset options: `cabinet_order` (cabinet indices), `closed_doors` (door indices; [] = all
@@ -197,14 +205,6 @@ class HospitalTask:
             self._fixed_clearance: FloatArray | None = None
         self._arrival_cost = 0.0
         self.episode: Episode | None = None
-
-    @property
-    def idle_rule(self) -> IdleRule:
-        return self.config.idle_rule
-
-    @property
-    def time_limit_s(self) -> float:
-        return self.config.time_limit_s
 
     @property
     def action_extras(self) -> tuple[np.ndarray, np.ndarray]:
