@@ -513,3 +513,27 @@ def test_every_shipped_hospital_runs_every_cabinet_reachable(name: str) -> None:
     assert all(math.isfinite(leg) for leg in legs), legs
     for _ in range(20):
         env.step(np.array([0.0, 0.0, 0.5]))
+
+
+def test_back_face_culling_on_fitted_outlines_gives_the_same_scans() -> None:
+    """The 2021 outline is fitted and directed (free side on the left): skipping back faces must
+    not change a single range anywhere the robot can be."""
+    env = gym.make("PicoHospital-v0", map="hospital_2021", **QUIET)
+    env.reset(seed=0)
+    scene = env.unwrapped.scene
+    assert scene.static_one_sided is not None and scene.static_one_sided.sum() > 1000
+    angles = env.unwrapped.lrf.beam_angles
+    rng = np.random.default_rng(0)
+
+    checked = 0
+    x0, y0, x1, y1 = scene.map.bounds
+    while checked < 200:
+        pose = Pose(float(rng.uniform(x0, x1)), float(rng.uniform(y0, y1)), float(rng.uniform(-math.pi, math.pi)))
+        if geometry.point_clearance(pose.x, pose.y, scene.static_solid) < 0.15:
+            continue
+        if not math.isfinite(env.unwrapped.episode.extra["fields"][0].lookup(pose.x, pose.y)):
+            continue  # outside the building or inside furniture: not a pose the robot can reach
+        plain = lrf_ranges(pose, scene.static_seen, angles)
+        culled = lrf_ranges(pose, scene.static_seen, angles, one_sided=scene.static_one_sided)
+        np.testing.assert_array_equal(plain, culled)
+        checked += 1

@@ -175,6 +175,7 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
             if not math.isfinite(ep.shortest_path_length_m):
                 raise ValueError(f"options['start_pose'] {tuple(start)} has no path to {self.task.goal_name}")
         self._seen = scene.static_seen
+        self._one_sided = scene.static_one_sided
         self._solid = scene.static_solid
         self._movers = scene.mover_segments if scene.has_movers else None
         self._mover_speed = scene.max_mover_speed_mps
@@ -193,7 +194,7 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self.trajectory = [ep.start]
         self.bump_points: list[Pose] = []
         self._finished = False
-        self.last_scan = self.lrf.scan(ep.start, self._seen, self.np_random, self._movers)
+        self.last_scan = self.lrf.scan(ep.start, self._seen, self.np_random, self._movers, self._one_sided)
         info = self._info({}, None, False, 0.0)
         if ep.public is not None:
             info["task"] = ep.public
@@ -260,7 +261,7 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self._finished = terminated or truncated
         reward = float(sum(outcome.reward_terms.values()))
         cost = float(new_bumps) + (dt if self._clearance < COST_CLEARANCE_M else 0.0)
-        self.last_scan = self.lrf.scan(pose, self._seen, self.np_random, self._movers)
+        self.last_scan = self.lrf.scan(pose, self._seen, self.np_random, self._movers, self._one_sided)
         if self.render_mode == "human":
             self.render()
         return (

@@ -103,9 +103,15 @@ def _cast(
     max_range: float,
     out: FloatArray,
     clear: bool,
+    one_sided: np.ndarray,
 ) -> None:
-    """Exact ranges into `out`; with clear=False, only shortens what `out` holds (a second set)."""
+    """Exact ranges into `out`; with clear=False, only shortens what `out` holds (a second set).
+
+    `one_sided` (empty, or a flag per segment) marks segments of closed outlines directed with
+    the free side on their left: one seen from its right is skipped, as a beam from free space
+    always meets another segment of the outline first."""
     n = beam_angles.shape[0]
+    culling = one_sided.shape[0] > 0
     if clear:
         out[:] = math.inf
     a_lo = beam_angles[0]
@@ -124,6 +130,8 @@ def _cast(
         y2 = -s * wx2 + c * wy2
         ex = x2 - x1
         ey = y2 - y1
+        if culling and one_sided[k] and x1 * ey - y1 * ex <= 0.0:
+            continue  # the sensor is on the segment's solid side: a back face
         # Cull segments out of range.
         length_sq = ex * ex + ey * ey
         t = 0.0
@@ -178,11 +186,15 @@ def _noisy(
             out[i] = min(rmax, max(rmin, r + noise * (2.0 * unit[i] - 1.0)))
 
 
+_NO_FLAGS = np.zeros(0, dtype=np.bool_)
+
+
 def lrf_ranges(
     pose: Pose,
     segments: Segments,
     beam_angles: FloatArray,
     max_range: float = PICO_RANGE_MAX_M,
+    one_sided: np.ndarray | None = None,
 ) -> FloatArray:
     """Exact noiseless ranges of a scan: distance along each beam to the nearest segment.
 
@@ -191,6 +203,8 @@ def lrf_ranges(
         segments: (N, 4) wall segments (x1, y1, x2, y2).
         beam_angles: ascending beam bearings in the sensor frame, radians.
         max_range: hits farther than this are ignored.
+        one_sided: optional flag per segment: a segment of a closed outline directed with the
+            free side on its left, which the cast may skip when the sensor is on its other side.
 
     Returns:
         A float64 array, one range per beam, `inf` where the beam hits nothing within max_range.
@@ -217,6 +231,7 @@ def lrf_ranges(
         float(max_range),
         out,
         True,
+        _NO_FLAGS if one_sided is None else np.ascontiguousarray(one_sided, dtype=np.bool_),
     )
     out[out > max_range] = math.inf
     return out
@@ -240,7 +255,9 @@ class Lrf:
         """The observation space of a scan, metres."""
         return gym.spaces.Box(0.0, self.config.range_max_m, shape=(self.config.n_beams,), dtype=np.float32)
 
-    def exact(self, pose: Pose, segments: Segments, dynamic: Segments | None = None) -> FloatArray:
+    def exact(
+        self, pose: Pose, segments: Segments, dynamic: Segments | None = None, one_sided: np.ndarray | None = None
+    ) -> FloatArray:
         """Noiseless ranges (inf for no hit). The returned array is reused by the next call.
 
         Args:
@@ -248,16 +265,24 @@ class Lrf:
             segments: the static segments the laser sees.
             dynamic: more segments (the movers' boxes, rewritten every step), cast into the same
                 ranges without joining the two arrays.
+            one_sided: flags of `segments` (see `lrf_ranges`).
         """
         cfg = self.config
         x, y, th = pose[0], pose[1], pose[2]
-        _cast(x, y, th, segments, self.beam_angles, self._cos, self._sin, cfg.range_max_m, self._ranges, True)
+        flags = _NO_FLAGS if one_sided is None else one_sided
+        beams, cos, sin, rmax, out = self.beam_angles, self._cos, self._sin, cfg.range_max_m, self._ranges
+        _cast(x, y, th, segments, beams, cos, sin, rmax, out, True, flags)
         if dynamic is not None and len(dynamic):
-            _cast(x, y, th, dynamic, self.beam_angles, self._cos, self._sin, cfg.range_max_m, self._ranges, False)
+            _cast(x, y, th, dynamic, beams, cos, sin, rmax, out, False, _NO_FLAGS)
         return self._ranges
 
     def scan(
-        self, pose: Pose, segments: Segments, rng: np.random.Generator, dynamic: Segments | None = None
+        self,
+        pose: Pose,
+        segments: Segments,
+        rng: np.random.Generator,
+        dynamic: Segments | None = None,
+        one_sided: np.ndarray | None = None,
     ) -> np.ndarray:
         """A reading as the robot gets it: noise added, clipped to the range, no-hit convention.
 
@@ -271,7 +296,7 @@ class Lrf:
             float32 ranges in [0, range_max_m].
         """
         cfg = self.config
-        ranges = self.exact(pose, segments, dynamic)
+        ranges = self.exact(pose, segments, dynamic, one_sided)
         unit = rng.random(cfg.n_beams) if cfg.noise_m > 0.0 else np.full(cfg.n_beams, 0.5)
         no_hit = 0.0 if cfg.no_hit == "zero" else cfg.range_max_m
         out = np.empty(cfg.n_beams, dtype=np.float32)

@@ -48,11 +48,15 @@ class HeightmapGeometry:
         visible: segments of obstacles at least as tall as the laser plane (seen and solid).
         low: segments of obstacles below the laser plane (solid, not seen by the LRF).
         doors: one segment array per door blob (its outline).
+        visible_one_sided: the visible segments are closed outlines directed with the free side
+            on their left (fitted outlines are): the LRF may skip those whose free side faces away,
+            as no beam from free space can reach them first.
     """
 
     visible: Segments
     low: Segments
     doors: tuple[Segments, ...]
+    visible_one_sided: bool = False
 
 
 def read_grey(path: Path) -> np.ndarray:
@@ -333,16 +337,39 @@ def heightmap_geometry(
             y = origin[1] + (rows - r) * resolution_m
         return np.column_stack([x[:, 0], y[:, 0], x[:, 1], y[:, 1]])
 
+    doors_world = tuple(to_world(_boundary_segments(mask) + [c0, r0, c0, r0]) for r0, c0, mask in doors)
     if simplify_m is None:
-        outline = _boundary_segments
+        return HeightmapGeometry(to_world(_boundary_segments(visible)), to_world(_boundary_segments(low)), doors_world)
+    tolerance_px = simplify_m / resolution_m
+    seen = to_world(_simplified_segments(visible, tolerance_px))
+    # The fitted loops run one way round their pixels; the placement may mirror them. Direct them
+    # so the free side is on the left, checked on the image itself.
+    if len(seen) and not _free_on_left(seen, visible, lambda xy: to_pixel(xy, rows, cols, resolution_m, origin)):
+        seen = seen[:, [2, 3, 0, 1]]
+    return HeightmapGeometry(seen, to_world(_simplified_segments(low, tolerance_px)), doors_world, True)
+
+
+def to_pixel(
+    xy: np.ndarray, rows: int, cols: int, resolution_m: float, origin: tuple[float, float] | None
+) -> np.ndarray:
+    """(row, col) of the pixels holding map-frame points (n, 2): the inverse of the placement."""
+    x, y = xy[:, 0], xy[:, 1]
+    if origin is None:
+        r, c = rows / 2.0 - x / resolution_m, cols / 2.0 - y / resolution_m
     else:
-        tolerance_px = simplify_m / resolution_m
+        c, r = (x - origin[0]) / resolution_m, rows - (y - origin[1]) / resolution_m
+    return np.column_stack([np.floor(r), np.floor(c)]).astype(np.int64)
 
-        def outline(solid: np.ndarray) -> np.ndarray:
-            return _simplified_segments(solid, tolerance_px)
 
-    return HeightmapGeometry(
-        visible=to_world(outline(visible)),
-        low=to_world(outline(low)),
-        doors=tuple(to_world(_boundary_segments(mask) + [c0, r0, c0, r0]) for r0, c0, mask in doors),
-    )
+def _free_on_left(segments: Segments, solid: np.ndarray, pixel_of) -> bool:  # noqa: ANN001
+    """Whether the segments' left sides are free, by a vote of probes just beside the longest ones."""
+    lengths = np.hypot(segments[:, 2] - segments[:, 0], segments[:, 3] - segments[:, 1])
+    pick = segments[np.argsort(-lengths)[:50]]
+    mid = 0.5 * (pick[:, :2] + pick[:, 2:])
+    d = pick[:, 2:] - pick[:, :2]
+    left = np.column_stack([-d[:, 1], d[:, 0]]) / np.hypot(d[:, 0], d[:, 1])[:, None]
+    probe = pixel_of(mid + left * 1e-3 + left * 0.3 * np.hypot(*d.T)[:, None].clip(max=0.01))
+    h, w = solid.shape
+    inside = (probe[:, 0] >= 0) & (probe[:, 0] < h) & (probe[:, 1] >= 0) & (probe[:, 1] < w)
+    free = ~solid[probe[inside, 0], probe[inside, 1]]
+    return bool(free.mean() >= 0.5) if len(free) else True

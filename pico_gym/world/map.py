@@ -121,6 +121,16 @@ class Map:
         return np.ascontiguousarray(np.vstack(parts))
 
     @cached_property
+    def structure_one_sided(self) -> np.ndarray:
+        """Per segment of `structure_segments`: a closed outline directed with the free side on its
+        left (fitted heightmap outlines), which the LRF may skip when seen from behind."""
+        flags = [np.zeros(len(self.walls), dtype=bool)]
+        geo = self._heightmap_geometry
+        if geo is not None:
+            flags.append(np.full(len(geo.visible), geo.visible_one_sided, dtype=bool))
+        return np.concatenate(flags)
+
+    @cached_property
     def cabinet_segments(self) -> Segments:
         """The cabinets' outlines (each cabinet's front first)."""
         if not self.cabinets:

@@ -68,6 +68,10 @@ class Scene:
         self.static_solid = solid
         n_seen = sum(len(p.reshape(-1, 4)) for p in seen)
         self.static_seen = solid[:n_seen]  # a view: what the LRF sees is a prefix of what is solid
+        one_sided = np.zeros(n_seen, dtype=bool)
+        one_sided[: len(world.structure_segments)] = world.structure_one_sided
+        # The LRF's back-face culling flags (None when no segment has one: the plain cast).
+        self.static_one_sided = one_sided if one_sided.any() else None
         self.mover_segments = np.zeros((4 * len(self.movers), 4))
         self.update_movers()
 
