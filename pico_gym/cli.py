@@ -188,11 +188,11 @@ def bench_hospital(args: argparse.Namespace) -> int:
         env.reset(seed=args.seed)
         scene = env.unwrapped.scene
         pose = env.unwrapped.pose
-        lrf.exact(pose, scene.static_seen, scene.mover_segments)
+        lrf.exact(pose, scene.static_seen, scene.mover_segments, scene.static_one_sided)
 
         def scans(scene=scene, pose=pose) -> int:  # noqa: ANN001
             for _ in range(1000):
-                lrf.exact(pose, scene.static_seen, scene.mover_segments)
+                lrf.exact(pose, scene.static_seen, scene.mover_segments, scene.static_one_sided)
             return 1000
 
         median, _ = _median_rate(scans, args.repeats)

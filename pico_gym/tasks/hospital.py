@@ -17,6 +17,7 @@ from typing import Any, Literal
 
 import numpy as np
 
+from pico_gym.jit import njit
 from pico_gym.robot import RobotConfig
 from pico_gym.tasks.base import (
     IDLE_TIME_S,
@@ -419,7 +420,7 @@ class HospitalTask(ConfiguredTask):
             poly = _rect(cx, cy, yaw, float(a), float(b))
             if geometry.polygon_clearance(poly, static, 0.06) < 0.05:
                 continue
-            if any(_polygon_distance(poly, k, BOX_MARGIN_M) < BOX_MARGIN_M for k in keep_out + lanes + boxes):
+            if _near_any(poly, keep_out + lanes + boxes, BOX_MARGIN_M):
                 continue
             candidate = boxes + [poly]
             segs = door_segs + [geometry.polygon_to_segments(p) for p in candidate]
@@ -537,6 +538,18 @@ def _rect(cx: float, cy: float, yaw: float, a: float, b: float) -> FloatArray:
     return np.column_stack([cx + c * local[:, 0] - s * local[:, 1], cy + s * local[:, 0] + c * local[:, 1]])
 
 
+def _near_any(p: FloatArray, others: list[FloatArray], margin: float) -> bool:
+    """Whether polygon `p` comes within `margin` of any of `others` (bounding boxes first)."""
+    if not others:
+        return False
+    lo, hi = p.min(axis=0), p.max(axis=0)
+    boxes = np.array([(*q.min(axis=0), *q.max(axis=0)) for q in others])
+    gap_x = np.maximum(0.0, np.maximum(boxes[:, 0] - hi[0], lo[0] - boxes[:, 2]))
+    gap_y = np.maximum(0.0, np.maximum(boxes[:, 1] - hi[1], lo[1] - boxes[:, 3]))
+    close = np.flatnonzero(np.hypot(gap_x, gap_y) < margin)
+    return any(_polygon_distance(p, others[i]) < margin for i in close.tolist())
+
+
 def _polygon_distance(p: FloatArray, q: FloatArray, within: float = math.inf) -> float:
     """Distance between two polygons (0 if they overlap); at least `within` when it is that large."""
     (plx, ply), (phx, phy) = p.min(axis=0), p.max(axis=0)
@@ -561,6 +574,24 @@ def _mover_lane(m: MoverRecord) -> FloatArray:
 PERSON_LENGTH_M, PERSON_WIDTH_M, PERSON_SPEED_MPS = 0.2, 0.4, 0.5
 
 
+@njit
+def _run_bounds(free: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """For every cell, the first and last column of the run of free cells along its row."""
+    rows, cols = free.shape
+    lo = np.zeros((rows, cols), dtype=np.int64)
+    hi = np.zeros((rows, cols), dtype=np.int64)
+    for r in range(rows):
+        c = 0
+        while c < cols:
+            start = c
+            while c < cols and free[r, c] == free[r, start]:
+                c += 1
+            for k in range(start, c):
+                lo[r, k] = start
+                hi[r, k] = c - 1
+    return lo, hi
+
+
 def _draw_person(
     rng: np.random.Generator,
     grid: Grid,
@@ -574,37 +605,30 @@ def _draw_person(
     `clearance` is 0 outside the building, so the path lies inside it."""
     need = 0.5 * PERSON_WIDTH_M + 0.15
     res = grid.resolution
-    xs, ys = grid.centres()
     candidates = np.argwhere(clearance >= need + 0.05)
     if len(candidates) == 0:
         return None
+    free = clearance >= need
+    row_lo, row_hi = _run_bounds(free)  # each cell's free run along its row
+    col_lo, col_hi = (a.T for a in _run_bounds(np.ascontiguousarray(free.T)))
     keep_out = [area] + squares + [_mover_lane(o) for o in others]
     for _ in range(40):
         r, c = candidates[int(rng.integers(len(candidates)))]
         horizontal = bool(rng.random() < 0.5)
-        line = clearance[r, :] if horizontal else clearance[:, c]
-        i = c if horizontal else r
-        lo = i
-        while lo > 0 and line[lo - 1] >= need:
-            lo -= 1
-        hi = i
-        while hi < len(line) - 1 and line[hi + 1] >= need:
-            hi += 1
+        lo, hi = (row_lo[r, c], row_hi[r, c]) if horizontal else (col_lo[r, c], col_hi[r, c])
         free_m = (hi - lo) * res - PERSON_LENGTH_M
         if free_m < 2.0:
             continue
         length = float(rng.uniform(2.0, min(6.0, free_m)))
         offset = float(rng.uniform(0.0, free_m - length))
-        a = (lo * res) + 0.5 * PERSON_LENGTH_M + offset
         if horizontal:
             x0 = grid.x0 + (0.5 + lo) * res + 0.5 * PERSON_LENGTH_M + offset
-            y = float(ys[r, c])
+            y = grid.y0 + (r + 0.5) * res
             init, final, yaw = (x0, y), (x0 + length, y), 0.0
         else:
             y0 = grid.y0 + (0.5 + lo) * res + 0.5 * PERSON_LENGTH_M + offset
-            x = float(xs[r, c])
+            x = grid.x0 + (c + 0.5) * res
             init, final, yaw = (x, y0), (x, y0 + length), math.pi / 2
-        del a
         if rng.random() < 0.5:
             init, final = final, init
         record = MoverRecord(
@@ -618,7 +642,7 @@ def _draw_person(
         )
         lane = _mover_lane(record)
         margin = 0.3 + record.half_diagonal_m
-        if any(_polygon_distance(lane, k, margin) < margin for k in keep_out):
+        if _near_any(lane, keep_out, margin):
             continue
         return record
     return None
