@@ -134,6 +134,8 @@ class Physics:
             wall.collision_type = _KIND_BASE + int(kind)
             space.add(wall)
         self._mover_bodies: list[pymunk.Body] = []
+        self._bodies_stale = False  # the movers moved (gliding) since the bodies were placed
+        self._pending: tuple | None = None  # the robot's state after glides, not yet in pymunk
         movers = scene.movers if scene is not None else None
         for i, rec in enumerate(movers.records if movers is not None else ()):
             body = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
@@ -208,8 +210,8 @@ class Physics:
     @property
     def pose(self) -> Pose:
         """The robot's true pose in the map frame."""
-        x, y = self.body.position
-        return Pose(float(x), float(y), float(math.remainder(self.body.angle, 2.0 * math.pi)))
+        x, y, angle = self._xya()
+        return Pose(float(x), float(y), float(math.remainder(angle, 2.0 * math.pi)))
 
     @property
     def in_contact(self) -> bool:
@@ -245,6 +247,9 @@ class Physics:
                 self._advance_movers_gliding(vx, vy, w, n, h)
             self._glide(vx, vy, w, n * h)
             return
+        self._flush()
+        if self._mover_bodies and self._bodies_stale:
+            self._place_bodies()  # where the movers went while the robot glided
         for _ in range(n):
             cvx, cvy, cw = self._ramp(vx, vy, w, h, robot)
             angle = self.body.angle
@@ -256,7 +261,8 @@ class Physics:
             self.space.step(h)
             self.time_s += h
         if self._mover_bodies:
-            self._place_movers()
+            self._place_bodies()
+            self.scene.update_movers()
 
     def _move_movers(self, h: float) -> None:
         """Advance the scene's movers by one sub-step and give their bodies the matching velocity.
@@ -269,38 +275,59 @@ class Physics:
             for body, (vx, vy) in zip(self._mover_bodies, movers.velocity.tolist(), strict=True):
                 body.velocity = (vx, vy)
 
-    def _place_movers(self) -> None:
+    def _place_bodies(self) -> None:
         """Put the kinematic bodies exactly where the scene's movers are (no drift)."""
         for body, (x, y) in zip(self._mover_bodies, self.scene.movers.positions().tolist(), strict=True):
             body.position = (x, y)
-        self.scene.update_movers()
+        self._bodies_stale = False
 
     def _advance_movers_gliding(self, vx: float, vy: float, w: float, n: int, h: float) -> None:
         """The movers' sub-steps while the robot glides (no contact possible this step)."""
-        x, y = self.body.position
+        x, y, angle = self._xya()
         movers = self.scene.movers
-        movers.advance_gliding(x, y, self.body.angle, vx, vy, w, n, h)
-        # The bodies sleep through a glide: no contact is possible, their positions are set below.
-        for body in self._mover_bodies:
-            body.velocity = (0.0, 0.0)
-        movers.velocity[:] = 0.0
-        self._place_movers()
+        movers.advance_gliding(x, y, angle, vx, vy, w, n, h)
+        # The bodies sleep through a glide (no contact is possible): they are stopped once and put
+        # where their movers are only when pymunk steps again.
+        if movers.velocity.any():
+            for body in self._mover_bodies:
+                body.velocity = (0.0, 0.0)
+            movers.velocity[:] = 0.0
+        self._bodies_stale = True
+        self.scene.update_movers()
 
     def _glide(self, vx: float, vy: float, w: float, duration_s: float) -> None:
-        """Move without contacts: exact integration, leaving the body as the sub-steps would."""
-        body = self.body
-        x, y = body.position
-        pose = integrate_twist(Pose(x, y, body.angle), vx, vy, w, duration_s)
-        angle = body.angle + w * duration_s  # keep the body's unwrapped angle continuous
+        """Move without contacts: exact integration, leaving the body as the sub-steps would.
+
+        The new state is kept here and written into pymunk only when pymunk steps again (one
+        write after any number of glides instead of one per step)."""
+        x, y, a = self._xya()
+        pose = integrate_twist(Pose(x, y, a), vx, vy, w, duration_s)
+        angle = a + w * duration_s  # keep the body's unwrapped angle continuous
         c, s = math.cos(angle), math.sin(angle)
         velocity = (c * vx - s * vy, s * vx + c * vy)
-        body.position = (pose.x, pose.y)
+        self._pending = (pose.x, pose.y, angle, velocity, w)
+        self.time_s += duration_s
+
+    def _xya(self) -> tuple[float, float, float]:
+        """The body's position and unwrapped angle (a pending glide's, if any)."""
+        if self._pending is not None:
+            return self._pending[0], self._pending[1], self._pending[2]
+        x, y = self.body.position
+        return x, y, self.body.angle
+
+    def _flush(self) -> None:
+        """Write a pending glide's state into the pymunk bodies, as the glide would have."""
+        if self._pending is None:
+            return
+        x, y, angle, velocity, w = self._pending
+        body = self.body
+        body.position = (x, y)
         body.angle = angle
         body.velocity = velocity
         body.angular_velocity = w
         self.control.velocity = velocity
         self.control.angular_velocity = w
-        self.time_s += duration_s
+        self._pending = None
 
     def _ramp(self, vx: float, vy: float, w: float, h: float, robot: RobotConfig) -> tuple[float, float, float]:
         """The command after the optional acceleration limits."""
