@@ -274,7 +274,7 @@ def plot_trajectories(
         start = env.unwrapped.trajectory[0]
         ax.plot(start.x, start.y, "o", color="black", ms=5)
         ax.set_aspect("equal")
-        ax.set_title(f"{map_name or 'generated room'}, seed {seed}", fontsize=9)
+        ax.set_title(f"{map_name or 'generated'}, seed {seed}", fontsize=9)
         ax.legend(fontsize=7, loc="best")
         ax.set_xticks([])
         ax.set_yticks([])
