@@ -207,7 +207,7 @@ def plot_results(out: Path, results: dict[str, list[EpisodeRecord]], summaries: 
             ax.scatter(i + jitter, times[i], s=6, alpha=0.4, color=COLOURS.get(names[i], "C4"))
     ax.set_xticks(range(len(names)), [f"{n}\n({len(t)} escapes)" for n, t in zip(names, times, strict=True)])
     ax.set_ylabel("time to success [s]")
-    ax.set_title("Escape time (successful episodes)")
+    ax.set_title("Time to success (successful episodes)")
     ax.grid(axis="y", alpha=0.3)
     fig.tight_layout()
     fig.savefig(out / "success_times.png")
