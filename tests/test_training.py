@@ -179,3 +179,36 @@ def test_init_from_another_runs_checkpoint(tiny_config, tmp_path):
     tuned = PPO.load(tmp_path / "b" / "checkpoints" / "ppo_2048_steps.zip", device="cpu")
     assert tuned.learning_rate == pytest.approx(3e-5)
     assert "proximity: 1.0" in (tmp_path / "b" / "config.yaml").read_text()
+
+
+def test_a_run_killed_while_saving_resumes_from_the_last_whole_checkpoint(tiny_config, tmp_path, capsys):
+    run = tmp_path / "run"
+    train(tiny_config, run, timesteps=1024, seed=0, progress_bar=False)
+    ckpt = run / "checkpoints"
+    assert latest_checkpoint(run, needs_stats=True)[1] == 1024
+    assert not list(ckpt.glob(".*"))  # no temporary files left behind
+    # A kill while writing the next checkpoint: a partial zip, and an empty one after it.
+    (ckpt / "ppo_2048_steps.zip").write_bytes((ckpt / "ppo_1024_steps.zip").read_bytes()[:3000])
+    (ckpt / "ppo_3072_steps.zip").write_bytes(b"")
+    assert latest_checkpoint(run) == (ckpt / "ppo_1024_steps.zip", 1024)
+    assert "skipping ppo_3072_steps.zip" in capsys.readouterr().out
+    # A checkpoint whose VecNormalize statistics are cut off is skipped too (not fresh statistics).
+    (ckpt / "ppo_2048_steps.zip").write_bytes((ckpt / "ppo_1024_steps.zip").read_bytes())
+    (ckpt / "ppo_vecnormalize_2048_steps.pkl").write_bytes(b"\x80\x04")
+    assert latest_checkpoint(run, needs_stats=True)[1] == 1024
+    (ckpt / "ppo_2048_steps.zip").unlink()
+    (ckpt / "ppo_vecnormalize_2048_steps.pkl").unlink()
+    (ckpt / "ppo_3072_steps.zip").unlink()
+    train(tiny_config, run, timesteps=2048, seed=0, progress_bar=False)
+    out = capsys.readouterr().out
+    assert "resuming" in out and "ppo_1024_steps.zip" in out
+    assert latest_checkpoint(run)[1] == 2048
+
+
+def test_resuming_with_another_model_config_is_refused_naming_the_keys(tiny_config, tmp_path):
+    run = tmp_path / "run"
+    train(tiny_config, run, timesteps=1024, seed=0, progress_bar=False)
+    other = tmp_path / "other.yaml"
+    other.write_text(TINY.replace("net_arch=[32, 32]", "net_arch=[64, 64]").replace("n_beams: 200", "n_beams: 100"))
+    with pytest.raises(ConfigError, match="resuming .* with other policy_kwargs, pico-gym.env_kwargs .*--init-from"):
+        train(load_config(other), run, timesteps=2048, seed=0, progress_bar=False)

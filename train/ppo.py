@@ -383,17 +383,90 @@ def behaviour_clone(model: Any, config: TrainConfig, episodes: int, epochs: int)
 
 
 # --- the run --------------------------------------------------------------------------------
-def latest_checkpoint(run_dir: Path) -> tuple[Path, int] | None:
-    """The checkpoint with the most env steps in `run_dir/checkpoints`, if any."""
+def _readable_zip(path: Path) -> bool:
+    """Whether a checkpoint zip is whole (a kill while writing leaves a partial or empty file)."""
+    import zipfile
+
+    try:
+        with zipfile.ZipFile(path) as z:
+            return z.testzip() is None and "data" in z.namelist()
+    except (OSError, zipfile.BadZipFile, EOFError):
+        return False
+
+
+def _readable_pickle(path: Path) -> bool:
+    import pickle
+
+    try:
+        with path.open("rb") as f:
+            pickle.load(f)  # our own run's statistics file (trusted: written by this trainer)
+        return True
+    except Exception:  # noqa: BLE001  (truncated or corrupt: any unpickling error)
+        return False
+
+
+def latest_checkpoint(run_dir: Path, needs_stats: bool = False) -> tuple[Path, int] | None:
+    """The newest readable checkpoint in `run_dir/checkpoints` (and, with `needs_stats`, with a
+    readable VecNormalize file beside it), if any; an unreadable newer one is reported and skipped."""
     found = []
     for p in (run_dir / "checkpoints").glob("ppo_*_steps.zip"):
         m = re.fullmatch(r"ppo_(\d+)_steps\.zip", p.name)
         if m:
             found.append((int(m.group(1)), p))
-    if not found:
-        return None
-    steps, path = max(found)
-    return path, steps
+    for steps, path in sorted(found, reverse=True):
+        stats = path.with_name(f"ppo_vecnormalize_{steps}_steps.pkl")
+        if not _readable_zip(path):
+            print(f"skipping {path.name}: not a whole checkpoint (a run killed while saving?)")
+        elif needs_stats and not (stats.exists() and _readable_pickle(stats)):
+            print(f"skipping {path.name}: its VecNormalize statistics {stats.name} are missing or unreadable")
+        else:
+            return path, steps
+    return None
+
+
+# Settings that change the model or what it observes: a resume must not change them silently.
+MODEL_KEYS = ("policy", "policy_kwargs", "env_wrapper", "normalize", "frame_stack", "n_envs")
+PICO_MODEL_KEYS = ("env_kwargs", "learning")
+
+
+def _config_changes(run_dir: Path, config: TrainConfig) -> list[str]:
+    """Keys that change the model or the observation and differ from the run's stored config."""
+    stored_path = run_dir / "config.yaml"
+    if not stored_path.exists():
+        return []
+    stored = yaml.safe_load(stored_path.read_text()) or {}
+    zoo, pico = stored.get(config.env_id, {}), stored.get(PICO_KEY, {})
+    changed = [k for k in MODEL_KEYS if zoo.get(k) != config.zoo.get(k)]
+    changed += [f"{PICO_KEY}.{k}" for k in PICO_MODEL_KEYS if pico.get(k) != config.pico.get(k)]
+    return changed
+
+
+def _atomic_checkpoints() -> Any:
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    class AtomicCheckpoints(BaseCallback):
+        """Checkpoints every `save_freq` calls, written to a temporary file and renamed into place,
+        so a kill while saving leaves the previous checkpoints intact."""
+
+        def __init__(self, save_freq: int, folder: Path, save_vecnormalize: bool) -> None:
+            super().__init__()
+            self.save_freq, self.folder, self.save_vecnormalize = save_freq, Path(folder), save_vecnormalize
+
+        def _on_step(self) -> bool:
+            if self.n_calls % self.save_freq:
+                return True
+            self.folder.mkdir(parents=True, exist_ok=True)
+            steps = self.num_timesteps
+            if self.save_vecnormalize and self.model.get_vec_normalize_env() is not None:
+                tmp = self.folder / f".ppo_vecnormalize_{steps}_steps.pkl.tmp"
+                self.model.get_vec_normalize_env().save(str(tmp))
+                os.replace(tmp, self.folder / f"ppo_vecnormalize_{steps}_steps.pkl")
+            tmp = self.folder / f".ppo_{steps}_steps.tmp.zip"
+            self.model.save(tmp)
+            os.replace(tmp, self.folder / f"ppo_{steps}_steps.zip")  # the zip last: it marks a whole checkpoint
+            return True
+
+    return AtomicCheckpoints
 
 
 def _versions() -> dict[str, str]:
@@ -427,7 +500,7 @@ def train(
     """
     import torch
     from stable_baselines3 import PPO
-    from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback
+    from stable_baselines3.common.callbacks import CallbackList
     from stable_baselines3.common.logger import configure
 
     started = time.perf_counter()
@@ -435,7 +508,15 @@ def train(
     run_dir.mkdir(parents=True, exist_ok=True)
     torch.set_num_threads(int(config.pico["torch_threads"]))
     total = int(timesteps if timesteps is not None else float(config.zoo["n_timesteps"]))
-    resumed = latest_checkpoint(run_dir)
+    normalized = _normalize_kwargs(config.zoo.get("normalize"), config.source) is not None
+    resumed = latest_checkpoint(run_dir, needs_stats=normalized)
+    if resumed is not None:
+        changed = _config_changes(run_dir, config)
+        if changed:
+            raise ConfigError(
+                f"{config.source}: resuming {run_dir} with other {', '.join(changed)} than the run was trained "
+                "with; start a new run from its checkpoint with --init-from to change them"
+            )
     if resumed is None and init_from is not None:
         init_from = Path(init_from)
         if not init_from.is_file():
@@ -497,10 +578,9 @@ def train(
     n_envs = int(zoo["n_envs"])
     callbacks = [
         EscapeStats(),
-        CheckpointCallback(
+        _atomic_checkpoints()(
             max(int(config.pico["checkpoint_freq"]) // n_envs, 1),
-            str(run_dir / "checkpoints"),
-            "ppo",
+            run_dir / "checkpoints",
             save_vecnormalize=norm is not None,
         ),
         PeriodicEval(config, run_dir, int(config.pico["eval_freq"]), int(config.pico["eval_episodes"])),
