@@ -48,6 +48,10 @@ def add_train(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--timesteps", type=int, help="total env steps (default: the config's n_timesteps)")
     p.add_argument("--seed", type=int, default=0, help="the run's seed (SB3, envs)")
     p.add_argument("--out", help="run directory (default: runs/<config>_seed<S>)")
-    p.add_argument("--init-from", help="start from this checkpoint of another run (e.g. to fine-tune)")
+    p.add_argument(
+        "--init-from",
+        help="start from this checkpoint of another run (e.g. to fine-tune). Checkpoints, policy zips and "
+        "VecNormalize pickles run code when loaded (as does resuming a run directory): trusted sources only",
+    )
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_train)

@@ -172,7 +172,9 @@ def _write_card(meta: dict[str, Any], config: dict[str, Any], rows: list[str], o
         + ", ".join(f"{k}={v!r}" for k, v in meta["learning"].items())
         + ")` (min-pooled LRF sectors, 360-degree range memory, odometry velocity, frame stack); "
         "actions in [-1, 1] rescaled to the robot's limits.",
-        '- Loads with `make_agent("ppo", env)`; needs stable-baselines3 and torch (the `train` extra).',
+        '- Loads with `make_agent("ppo", env)` from `ppo_escape.npz` (the actor as plain arrays, numpy only, '
+        "loaded with pickling off); `ppo_escape.zip` is the stable-baselines3 training artefact (needs torch, "
+        "the `train` extra). A zip or pickle runs code when loaded: use only files from a source you trust.",
         "",
         "## How it was trained",
         *[f"- {line}" for line in meta.get("history", [])],
