@@ -18,6 +18,7 @@ import numpy as np
 from pico_gym.overlay import Overlay
 from pico_gym.types import FloatArray, Pose
 from pico_gym.world.geometry import transform_points
+from pico_gym.world.movers import box_corners
 
 if TYPE_CHECKING:
     from pico_gym.world.map import Map
@@ -48,13 +49,6 @@ OPEN_DOOR = (220, 190, 140)
 BOX = (110, 80, 50)
 MOVER = (200, 40, 120)
 PAUSE = (240, 170, 210)
-
-
-def _box(x: float, y: float, yaw: float, length: float, width: float) -> FloatArray:
-    c, s = np.cos(yaw), np.sin(yaw)
-    local = np.array([(0.5 * length, -0.5 * width), (0.5 * length, 0.5 * width)])
-    local = np.vstack([local, -local])
-    return np.column_stack([x + c * local[:, 0] - s * local[:, 1], y + s * local[:, 0] + c * local[:, 1]])
 
 
 def _pygame() -> Any:
@@ -177,7 +171,7 @@ class Renderer:
         for (x, y, yaw), (length, width), pause in movers:
             centre = view.px(np.array([x, y]))[0]
             pygame.draw.circle(surface, PAUSE, centre, max(1, int(pause * view.scale)), 1)
-            pygame.draw.polygon(surface, MOVER, view.px(_box(x, y, yaw, length, width)))
+            pygame.draw.polygon(surface, MOVER, view.px(box_corners(x, y, yaw, length, width)))
         pose = state.pose
         if len(state.trajectory) > 1:
             pygame.draw.lines(surface, TRAIL, False, view.px(state.trajectory), 1)

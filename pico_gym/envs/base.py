@@ -37,6 +37,7 @@ from pico_gym.world.scene import KINDS, SceneSnapshot
 CLEARANCE_CAP_M = 2.0
 # info["cost"] (Safety Gym's convention): 1 per bump plus 1 per second closer than this to anything [m].
 COST_CLEARANCE_M = 0.1
+_NO_EXTRAS = np.zeros(0)
 
 
 @dataclass(frozen=True)
@@ -273,13 +274,13 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         )
 
     def _split_action(self, action: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        if self._n_extras == 0:
+            return action, _NO_EXTRAS  # clip_twist checks the size and names bad components
         a = np.asarray(action, dtype=np.float64).reshape(-1)
         n = 3 + self._n_extras
         if a.size != n:
             names = "(vx, vy, w" + "".join(f", extra{i}" for i in range(self._n_extras)) + ")"
             raise ValueError(f"action must have {n} components {names}, got shape {np.shape(action)}")
-        if self._n_extras == 0:
-            return a, a[3:]
         extras = a[3:]
         for i, value in enumerate(extras.tolist()):
             if not math.isfinite(value):

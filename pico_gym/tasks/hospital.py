@@ -34,7 +34,7 @@ from pico_gym.world import geometry
 from pico_gym.world.grid import CostGrid, Grid, clearance_grid
 from pico_gym.world.hospital import HospitalConfig, cabinets_of, generate_hospital
 from pico_gym.world.map import Map
-from pico_gym.world.scene import MoverRecord, Movers, Scene
+from pico_gym.world.scene import MoverRecord, Movers, Scene, box_corners
 
 TIME_LIMIT_S = 600.0
 TERMINATION_REASONS = ("done", "bump", "idle", "false_announcement", "timeout")
@@ -367,7 +367,7 @@ class HospitalTask(ConfiguredTask):
         squares: list[FloatArray],
     ) -> list[MoverRecord]:
         if world.movers:
-            return [m if isinstance(m, MoverRecord) else _record(m) for m in world.movers]
+            return list(world.movers)  # the map loader made them MoverRecords
         lo, hi = self.config.n_movers
         n = int(rng.integers(lo, hi + 1))
         out: list[MoverRecord] = []
@@ -417,7 +417,7 @@ class HospitalTask(ConfiguredTask):
             cx, cy = float(xs[r, c]), float(ys[r, c])
             a, b = rng.uniform(*self.config.box_side_m, size=2)
             yaw = float(rng.uniform(0, math.pi)) if rng.random() < 0.5 else 0.0
-            poly = _rect(cx, cy, yaw, float(a), float(b))
+            poly = box_corners(cx, cy, yaw, float(a), float(b))
             if geometry.polygon_clearance(poly, static, 0.06) < 0.05:
                 continue
             if _near_any(poly, keep_out + lanes + boxes, BOX_MARGIN_M):
@@ -506,12 +506,6 @@ class HospitalTask(ConfiguredTask):
         return {"squares": squares, "status": f"cabinets {self._done}/{len(self._targets)}"}
 
 
-def _record(data: Any) -> MoverRecord:
-    from pico_gym.world.scene import mover_record
-
-    return mover_record(data, "movers")
-
-
 def _cell(grid: Grid, x: float, y: float) -> tuple[int, int]:
     c = int(np.clip((x - grid.x0) / grid.resolution, 0, grid.shape[1] - 1))
     r = int(np.clip((y - grid.y0) / grid.resolution, 0, grid.shape[0] - 1))
@@ -530,12 +524,6 @@ def _costs(grid: Grid, base_clearance: FloatArray, extra: Segments) -> CostGrid:
     if len(extra):
         clearance = np.minimum(base_clearance, clearance_grid(grid, extra, cap=0.5))
     return CostGrid.from_clearance(grid, clearance, inflation_m=FIELD_INFLATION_M)
-
-
-def _rect(cx: float, cy: float, yaw: float, a: float, b: float) -> FloatArray:
-    c, s = math.cos(yaw), math.sin(yaw)
-    local = np.array([(a / 2, -b / 2), (a / 2, b / 2), (-a / 2, b / 2), (-a / 2, -b / 2)])
-    return np.column_stack([cx + c * local[:, 0] - s * local[:, 1], cy + s * local[:, 0] + c * local[:, 1]])
 
 
 def _near_any(p: FloatArray, others: list[FloatArray], margin: float) -> bool:
@@ -565,7 +553,7 @@ def _polygon_distance(p: FloatArray, q: FloatArray, within: float = math.inf) ->
 def _mover_lane(m: MoverRecord) -> FloatArray:
     """The rectangle a mover sweeps between its two poses."""
     (x0, y0, yaw), (x1, y1, _) = m.init_pose, m.final_pose
-    corners = np.vstack([_rect(x0, y0, yaw, m.length, m.width), _rect(x1, y1, yaw, m.length, m.width)])
+    corners = np.vstack([box_corners(x0, y0, yaw, m.length, m.width), box_corners(x1, y1, yaw, m.length, m.width)])
     lo, hi = corners.min(axis=0), corners.max(axis=0)
     return np.array([(lo[0], lo[1]), (hi[0], lo[1]), (hi[0], hi[1]), (lo[0], hi[1])])
 
