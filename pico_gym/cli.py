@@ -10,6 +10,7 @@ and, registered by pico_gym.agents and pico_gym.train through the `pico_gym.comm
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import platform
 import statistics
@@ -280,21 +281,32 @@ def cmd_bench_walls(args: argparse.Namespace) -> int:
     import gymnasium as gym
 
     import pico_gym  # noqa: F401
+    from pico_gym.physics import PhysicsConfig
+    from pico_gym.robot import RobotConfig
     from pico_gym.world.catalog import shipped_maps
     from pico_gym.world.geometry import footprint_clearance
 
     rng = np.random.default_rng(args.seed)
-    maps = [None] + [m for m in shipped_maps() if m.startswith("escape")]
-    steps = overlaps = 0
-    worst = 0.0
+    settings = [("generated room", {}), ("generated room, 3 obstacles", {"n_obstacles": 3})]
+    settings += [(m, {"map": m, "sample_start": True}) for m in shipped_maps() if m.startswith("escape")]
+    robot, physics = RobotConfig(), PhysicsConfig()
+    # The highest speed the default physics accepts at the full turn rate (check_solid's limit).
+    top = (
+        math.floor(
+            1000 * (physics.contact_skin_m / physics.substep_s - robot.max_turn_rate_radps * robot.circumradius_m)
+        )
+        / 1000
+    )
+    speeds = (0.5, 0.6, 0.7, top)
+    steps = overlaps = held = contact_steps = 0
+    nearest = math.inf
     t0 = time.perf_counter()
-    per_setting = max(1, args.steps // (len(maps) * 4))
+    per_setting = max(1, args.steps // (len(settings) * len(speeds)))
     print(f"machine : {_machine()}")
-    for map_name in maps:
-        for speed in (0.5, 0.6, 0.7, 0.73):  # up to the highest speed the default physics accepts
+    for _name, options in settings:
+        for speed in speeds:
             kwargs = {"collision": "continue", "max_speed_mps": speed, "time_limit_s": 1e5, "idle_time_s": 1e5}
-            if map_name:
-                kwargs.update(map=map_name, sample_start=True)
+            kwargs.update(options)
             env = gym.make("PicoEscape-v0", **kwargs)
             env.reset(seed=int(rng.integers(1 << 30)))
             outline = env.unwrapped.config.robot.outline
@@ -305,20 +317,27 @@ def cmd_bench_walls(args: argparse.Namespace) -> int:
                 action = high * rng.choice([-1.0, 1.0], size=3) * rng.choice([0.0, 1.0], size=3, p=[0.2, 0.8])
                 for _ in range(int(rng.integers(5, 30))):
                     _, _, terminated, truncated, info = env.step(action)
-                    pose = env.unwrapped.pose
-                    solid = env.unwrapped.scene.static_solid
-                    clearance = footprint_clearance(pose.x, pose.y, pose.theta, outline, solid, 0.05)
+                    u = env.unwrapped
+                    pose = u.pose
+                    clearance = footprint_clearance(pose.x, pose.y, pose.theta, outline, u.scene.static_solid, 0.05)
                     steps += 1
                     done += 1
-                    if clearance <= 0.0:
-                        overlaps += 1
-                    worst = max(worst, 0.0 if clearance > 0 else 1.0)
+                    overlaps += clearance <= 0.0
+                    contact_steps += u.physics.in_contact
+                    nearest = min(nearest, clearance)
                     if terminated or truncated:
+                        held += u.physics.held
                         env.reset(seed=int(rng.integers(1 << 30)))
                         break
+            held += env.unwrapped.physics.held
             env.close()
     rate = steps / (time.perf_counter() - t0)
-    print(f"adversarial driving: {steps:,} steps over {len(maps)} maps x 4 speeds ({rate:,.0f} steps/s)")
+    print(
+        f"adversarial driving: {steps:,} steps over {len(settings)} worlds x speeds {', '.join(map(str, speeds))} m/s "
+        f"at the full turn rate ({rate:,.0f} steps/s)"
+    )
+    print(f"steps in contact: {contact_steps:,}; sub-steps undone because the footprint would have touched: {held:,}")
+    print(f"nearest the true footprint came to anything solid: {nearest * 1000:.2f} mm")
     print(f"true footprint overlapping something solid: {overlaps} steps")
     return 0 if overlaps == 0 else 1
 

@@ -29,12 +29,15 @@ from pico_gym.robot import RobotConfig
 from pico_gym.sensors.odometry import integrate_twist
 from pico_gym.types import Pose, Segments
 from pico_gym.validate import flag, number
+from pico_gym.world.geometry import footprint_clearance
 from pico_gym.world.scene import KINDS, MOVER, WALL, Scene
 
 # The free-space shortcut and contact handling assume sub-steps of at most this [s].
 MAX_SUBSTEP_S = 0.05
 
 _ROBOT = 1
+_TOUCH_M = 1e-6  # the true footprint closer than this to static geometry counts as touching it
+_CAP_TOLERANCE = 1e-9
 _KIND_BASE = 2  # collision type of kind k is _KIND_BASE + k
 
 
@@ -48,8 +51,8 @@ class PhysicsConfig:
         contact_skin_m: the collision shape is the footprint grown by this margin [m]. pymunk
             resolves a contact only after it appears, so shapes overlap by up to about the
             distance a point of the robot moves in one sub-step (7.4 mm measured at 0.01 s);
-            the skin absorbs that, so the true footprint never overlaps a wall. A bump is thus
-            the footprint coming within this distance of something.
+            the skin absorbs that. A bump is thus the footprint coming within this distance of
+            something. What is guaranteed does not rest on the skin alone: see `Physics`.
         bump_debounce_s: a contact that starts within this time after the last one ended is
             the same bump (the solver lets a pushing robot separate and touch again).
         collision_slop_m: overlap pymunk allows before it pushes shapes apart [m].
@@ -102,6 +105,12 @@ class PhysicsConfig:
 class Physics:
     """One episode's pymunk world with the robot in it.
 
+    Guaranteed at every accepted setting (`PhysicsConfig.check_solid` refuses the rest): the
+    robot's true footprint never touches static geometry (walls, cabinets, closed doors, boxes)
+    after any sub-step, and no contact drives it faster than `max_speed_mps` or turns it faster
+    than `max_turn_rate_radps`. The skin keeps pymunk's contacts away from the true footprint; a
+    sub-step after which the footprint would still touch something is undone (counted in `held`).
+
     Args:
         segments: (N, 4) static solid geometry, map frame.
         robot: the robot's shape and limits.
@@ -124,6 +133,13 @@ class Physics:
         self.robot = robot
         self.scene = scene
         self._circumradius_m = robot.circumradius_m  # a property that walks the outline: once
+        self._segments = np.ascontiguousarray(segments, dtype=np.float64).reshape(-1, 4)
+        self._outline = np.ascontiguousarray(robot.outline, dtype=np.float64)
+        # The caps a contact may not push the robot past (a hair above them: the drive itself
+        # reaches the commanded velocity only up to rounding).
+        self._speed_cap = robot.max_speed_mps * (1.0 + _CAP_TOLERANCE)
+        self._turn_cap = robot.max_turn_rate_radps * (1.0 + _CAP_TOLERANCE)
+        self.held = 0  # sub-steps undone because the true footprint would have touched something
         space = pymunk.Space()
         space.iterations = config.iterations
         space.collision_slop = config.collision_slop_m
@@ -250,9 +266,11 @@ class Physics:
         self._flush()
         if self._mover_bodies and self._bodies_stale:
             self._place_bodies()  # where the movers went while the robot glided
+        body = self.body
         for _ in range(n):
             cvx, cvy, cw = self._ramp(vx, vy, w, h, robot)
-            angle = self.body.angle
+            x0, y0 = body.position
+            angle = body.angle
             c, s = math.cos(angle), math.sin(angle)
             self.control.velocity = (c * cvx - s * cvy, s * cvx + c * cvy)
             self.control.angular_velocity = cw
@@ -260,9 +278,47 @@ class Physics:
                 self._move_movers(h)
             self.space.step(h)
             self.time_s += h
+            self._hold(x0, y0, angle)
         if self._mover_bodies:
             self._place_bodies()
             self.scene.update_movers()
+
+    def _hold(self, x0: float, y0: float, angle0: float) -> None:
+        """Keep the guarantees of a sub-step (see `Physics`) after pymunk has taken it.
+
+        A contact may not move the robot past its caps: the sub-step's rotation and translation
+        are clipped to what `max_turn_rate_radps` and `max_speed_mps` allow in one sub-step (the
+        solver's penetration correction moves bodies besides their velocities), and so are the
+        body's velocities that pymunk integrates the next sub-step from. And the true footprint
+        never touches static geometry: a sub-step after which it would is undone (the body back
+        where it was, at rest)."""
+        body = self.body
+        h = self.config.substep_s
+        x, y = body.position
+        angle = body.angle
+        turn_cap, speed_cap = self._turn_cap, self._speed_cap
+        da = angle - angle0
+        if abs(da) > turn_cap * h:
+            angle = angle0 + math.copysign(turn_cap * h, da)
+            body.angle = angle
+        dx, dy = x - x0, y - y0
+        d = math.hypot(dx, dy)
+        if d > speed_cap * h:
+            x, y = x0 + dx * speed_cap * h / d, y0 + dy * speed_cap * h / d
+            body.position = (x, y)
+        w = body.angular_velocity
+        if abs(w) > turn_cap:
+            body.angular_velocity = math.copysign(turn_cap, w)
+        vx, vy = body.velocity
+        speed = math.hypot(vx, vy)
+        if speed > speed_cap:
+            body.velocity = (vx * speed_cap / speed, vy * speed_cap / speed)
+        if footprint_clearance(x, y, angle, self._outline, self._segments, _TOUCH_M) <= 0.0:
+            body.position = (x0, y0)
+            body.angle = angle0
+            body.velocity = (0.0, 0.0)
+            body.angular_velocity = 0.0
+            self.held += 1
 
     def _move_movers(self, h: float) -> None:
         """Advance the scene's movers by one sub-step and give their bodies the matching velocity.
