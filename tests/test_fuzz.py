@@ -157,3 +157,114 @@ def test_training_yaml_policy_kwargs_are_data_not_code(tmp_path) -> None:
         with pytest.raises(ConfigError, match="is not data"):
             _policy_kwargs(text, "c.yaml")
     assert not marker.exists()
+
+
+# --- maps checked at load: start and finish ----------------------------------------------------
+
+
+def _escape_small(**changes: object) -> dict:
+    from pico_gym.world.catalog import shipped_maps
+
+    data = json.loads(shipped_maps()["escape_small"].read_text())
+    data.update(changes)
+    return data
+
+
+def _make(tmp_path, data: dict, name: str = "m.json"):
+    path = tmp_path / name
+    path.write_text(json.dumps(data))
+    return gym.make("PicoEscape-v0", map_path=path)
+
+
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        (
+            {"start_pose": {"x": 50.0, "y": 50.0, "theta": 0.0}},
+            "m.json: start_pose \\(50.000, 50.000\\) is not inside the walls",
+        ),
+        # a closed 1 x 1 m block of walls with the start in it
+        (
+            {
+                "points": [
+                    [0, 0],
+                    [4, 0],
+                    [4, 3],
+                    [2.6, 3],
+                    [2.6, 6.5],
+                    [1.8, 6.5],
+                    [1.8, 3],
+                    [0, 3],
+                    [0.5, 0.5],
+                    [1.5, 0.5],
+                    [1.5, 1.5],
+                    [0.5, 1.5],
+                ],
+                "walls": [[0, 1], [1, 2], [2, 3], [3, 4], [5, 6], [6, 7], [7, 0], [8, 9], [9, 10], [10, 11], [11, 8]],
+            },
+            "start_pose \\(1.000, 1.000\\) is inside an obstacle or has no path to the finish line",
+        ),
+        # the corridor walled off: the finish cannot be reached
+        (
+            {
+                "points": [[0, 0], [4, 0], [4, 3], [2.6, 3], [2.6, 6.5], [1.8, 6.5], [1.8, 3], [0, 3]],
+                "walls": [[0, 1], [1, 2], [2, 3], [3, 4], [5, 6], [6, 7], [7, 0], [3, 6]],
+            },
+            "start_pose \\(1.000, 1.000\\) is inside an obstacle or has no path to the finish line",
+        ),
+    ],
+)
+def test_an_escape_map_with_a_bad_start_or_finish_is_refused_at_load(tmp_path, change: dict, message: str) -> None:
+    with pytest.raises(MapError, match=message):
+        _make(tmp_path, _escape_small(**change))
+
+
+def test_a_start_area_without_a_start_that_reaches_the_finish_is_refused(tmp_path) -> None:
+    data = _escape_small(start_area=[[[0, 1], [1, 2], [2, 7], [7, 0]]])  # the whole room...
+    data["walls"] = data["walls"] + [[3, 6]]  # ...with the corridor walled off
+    del data["start_pose"]
+    with pytest.raises(MapError, match="m.json: start_area: found no free start pose in it with a path to the finish"):
+        _make(tmp_path, data)
+
+
+def test_a_reset_start_past_the_finish_line_is_refused() -> None:
+    env = gym.make("PicoEscape-v0", map="escape_small")
+    with pytest.raises(ValueError, match="start_pose.*is past the finish line"):
+        env.reset(seed=0, options={"start_pose": (2.2, 6.35, math.pi / 2)})
+
+
+def test_escaping_means_going_through_the_finish_segment_not_round_it() -> None:
+    from pico_gym.tasks.base import StepContext
+    from pico_gym.types import Pose
+
+    env = gym.make("PicoEscape-v0", map="escape_small")
+    env.reset(seed=0)
+    task = env.unwrapped.task
+
+    def judge(before: Pose, after: Pose) -> bool:
+        ctx = StepContext(before, after, (0.0, 0.0, 0.0), 0, (), 0, 0.0, 0.1, 1.0, 1.0, 1.0, np.zeros(0))
+        return task.evaluate(ctx).is_success
+
+    # Beside the corridor, across the finish line's extension (y = 6.2, x outside [1.8, 2.6]).
+    assert not judge(Pose(3.5, 6.1, 0.0), Pose(3.5, 6.5, 0.0))
+    assert not judge(Pose(3.5, 6.5, 0.0), Pose(3.5, 6.6, 0.0))
+    # Through the segment, inside the corridor.
+    assert judge(Pose(2.2, 6.1, 0.0), Pose(2.2, 6.5, 0.0))
+
+
+def test_a_heightmap_block_is_solid_inside(tmp_path) -> None:
+    """A start inside a black block of a heightmap is refused (its interior is not floor); one on
+    the floor beside it loads."""
+    grey = np.full((100, 100), 255, dtype=np.uint8)
+    grey[:2, :] = grey[-2:, :] = grey[:, :2] = grey[:, -2:] = 0  # the room's walls
+    grey[40:60, 40:60] = 0  # a 1 x 1 m block in the middle
+    _png(tmp_path, grey, "room.png")
+    data = {
+        "heightmap": {"image": "room.png", "resolution": 0.05, "origin": [0.0, 0.0]},
+        "finish": [[0.1, 4.0], [4.9, 4.0]],
+        "start_pose": {"x": 2.5, "y": 2.5, "theta": 0.0},
+    }
+    with pytest.raises(MapError, match="room.json: start_pose \\(2.500, 2.500\\) is inside an obstacle"):
+        _make(tmp_path, data, "room.json")
+    data["start_pose"] = {"x": 1.0, "y": 2.5, "theta": 0.0}
+    _make(tmp_path, data, "room.json").reset(seed=0)

@@ -29,7 +29,7 @@ from pico_gym.validate import flag, number
 from pico_gym.world import geometry
 from pico_gym.world.escape_room import EscapeRoomConfig, generate_escape_room, sample_start_pose
 from pico_gym.world.grid import GeodesicField, Grid, geodesic_field
-from pico_gym.world.map import Map
+from pico_gym.world.map import Map, MapError
 from pico_gym.world.scene import Scene
 
 # Competition rules: 30 s without sensible movement ends a trial; 5 minutes per team.
@@ -189,6 +189,10 @@ class EscapeTask(ConfiguredTask):
         self._finish_point = np.zeros(2)
         self._finish_normal = np.zeros(2)
         self._progress: GeodesicProgress | None = None
+        self.fixed_finish = np.zeros((2, 2))
+        self._out = False  # the centre went out through the finish segment (and not back)
+        if fixed_map is not None:
+            self._check_map(fixed_map)
 
     # --- reset -------------------------------------------------------------------------
     def new_episode(
@@ -209,14 +213,56 @@ class EscapeTask(ConfiguredTask):
                 fixed = world.start_pose is not None and not self.config.sample_start
                 start = world.start_pose if fixed else self._sample_fixed_start(world, rng)
         field = self._field(world)
+        if self._centre_past_line(start):
+            raise ValueError(f"options['start_pose'] {tuple(start)} is past the finish line")
         # The oracle path: the origin's geodesic to the line, plus the footprint's rear half so
         # the whole robot is across.
         rear = float(-self.robot.outline[:, 0].min())
         shortest = field.lookup(start.x, start.y) + rear
         self._progress = GeodesicProgress(field, start)
+        self.fixed_finish = np.asarray(world.finish, dtype=np.float64)
+        self._out = False
         # Every door of an escape map is closed (a door leaf is part of the room).
         scene = Scene(world, closed_doors=tuple(range(len(world.door_segments))))
         return Episode(scene, start, shortest, extra={"field": field, "room": room})
+
+    def _check_map(self, world: Map) -> None:
+        """What a fixed map must give, checked at load: a start pose (if it has one) inside the
+        walls, off every obstacle, before the finish line and with a path to it for the footprint;
+        otherwise a start area (or the whole map) with such a pose in it.
+
+        Raises:
+            MapError: naming the file and the key.
+        """
+        where = world.source or world.name
+        self._set_finish(world, _start_side(world))
+        if world.start_pose is not None:
+            pose = world.start_pose
+            at = f"start_pose ({pose.x:.3f}, {pose.y:.3f})"
+            if not is_enclosed(pose.x, pose.y, world.solid_segments()):
+                raise MapError(f"{where}: {at} is not inside the walls")
+            if self.start_problem(world, pose) is not None:
+                raise MapError(f"{where}: {at} {self.start_problem(world, pose)}")
+        if world.start_pose is None or self.config.sample_start:
+            try:  # a fixed generator: a check, not a draw of any episode
+                self._sample_fixed_start(world, np.random.default_rng(0), tries=2000)
+            except ValueError:
+                key = "start_area" if world.start_area else "start_area (none given: anywhere inside the walls)"
+                raise MapError(
+                    f"{where}: {key}: found no free start pose in it with a path to the finish line"
+                ) from None
+
+    def _centre_past_line(self, pose: Pose) -> bool:
+        p, n = self._finish_point, self._finish_normal
+        return bool((pose.x - p[0]) * n[0] + (pose.y - p[1]) * n[1] >= 0.0)
+
+    def start_problem(self, world: Map, pose: Pose) -> str | None:
+        """Why `pose` cannot start an escape on `world` (None when it can)."""
+        if self._centre_past_line(pose):
+            return "is past the finish line"
+        if not math.isfinite(self._field(world).lookup(pose.x, pose.y)):
+            return "is inside an obstacle or has no path to the finish line for the robot's footprint"
+        return None
 
     def _field(self, world: Map) -> GeodesicField:
         if self._field_cache is not None and self._field_cache[0] is world:
@@ -237,7 +283,7 @@ class EscapeTask(ConfiguredTask):
         self._finish_point = a
         self._finish_normal = normal
 
-    def _sample_fixed_start(self, world: Map, rng: np.random.Generator) -> Pose:
+    def _sample_fixed_start(self, world: Map, rng: np.random.Generator, tries: int = 10000) -> Pose:
         """A start pose on a fixed map without start_pose: in its start area, else anywhere free
         and enclosed by walls."""
         segments = world.solid_segments()
@@ -248,7 +294,7 @@ class EscapeTask(ConfiguredTask):
             x0, y0, x1, y1 = world.bounds
             region = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
         lo, hi = region.min(axis=0), region.max(axis=0)
-        for _ in range(10000):
+        for _ in range(tries):
             x, y = rng.uniform(lo, hi)
             pose = Pose(float(x), float(y), float(rng.uniform(-math.pi, math.pi)))
             if not geometry.point_in_polygon(pose.x, pose.y, region):
@@ -269,10 +315,32 @@ class EscapeTask(ConfiguredTask):
         p, n = self._finish_point, self._finish_normal
         return _min_signed_distance(pose.x, pose.y, pose.theta, self.robot.outline, p[0], p[1], n[0], n[1])
 
+    def _crossing(self, before: Pose, after: Pose) -> int:
+        """+1 when the robot's centre went out through the finish line segment in this step, -1
+        when it came back in through it, 0 otherwise (crossing the line's extension beside the
+        corridor is no crossing)."""
+        a, b = self.fixed_finish
+        if not geometry.segments_intersect(before.x, before.y, after.x, after.y, a[0], a[1], b[0], b[1]):
+            return 0
+        p, n = self._finish_point, self._finish_normal
+        d0 = (before.x - p[0]) * n[0] + (before.y - p[1]) * n[1]
+        d1 = (after.x - p[0]) * n[0] + (after.y - p[1]) * n[1]
+        if d0 <= 0.0 < d1:
+            return 1
+        if d1 <= 0.0 < d0:
+            return -1
+        return 0
+
     def evaluate(self, ctx: StepContext) -> StepOutcome:
-        """Judge one step: its reward terms, and why the episode ends now (or None)."""
+        """Judge one step: its reward terms, and why the episode ends now (or None).
+
+        Escaped: the robot's centre has gone out through the finish line segment (inside the
+        corridor, not round it) and the whole footprint is past the line."""
         progress = self._progress.update(ctx.pose)
-        escaped = self.past_finish(ctx.pose) > 0.0
+        crossing = self._crossing(ctx.pose_before, ctx.pose)
+        if crossing:
+            self._out = crossing > 0
+        escaped = self._out and self.past_finish(ctx.pose) > 0.0
         return StepOutcome(
             self.reward_terms(progress, escaped, ctx.new_bumps, ctx.dt_s, ctx.clearance_m, ctx.previous_clearance_m),
             self.termination(escaped, ctx.bumps, ctx.idle_s),
