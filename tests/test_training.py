@@ -212,3 +212,30 @@ def test_resuming_with_another_model_config_is_refused_naming_the_keys(tiny_conf
     other.write_text(TINY.replace("net_arch=[32, 32]", "net_arch=[64, 64]").replace("n_beams: 200", "n_beams: 100"))
     with pytest.raises(ConfigError, match="resuming .* with other policy_kwargs, pico-gym.env_kwargs .*--init-from"):
         train(load_config(other), run, timesteps=2048, seed=0, progress_bar=False)
+
+
+def test_progress_and_eval_records_continue_across_a_resume(tiny_config, tmp_path):
+    import csv
+
+    run = tmp_path / "run"
+    train(tiny_config, run, timesteps=1024, seed=0, progress_bar=False)
+    first = list(csv.DictReader((run / "progress.csv").open()))
+    first_evals = list(csv.DictReader((run / "eval.csv").open()))
+    assert first and first_evals
+    # The session after a kill: its rows past the checkpoint it resumes from are redone.
+    train(tiny_config, run, timesteps=2048, seed=0, progress_bar=False)
+    rows = list(csv.DictReader((run / "progress.csv").open()))
+    steps = [int(float(r["time/total_timesteps"])) for r in rows]
+    elapsed = [float(r["time/time_elapsed"]) for r in rows]
+    assert len(rows) > len(first) and rows[: len(first)] == first  # the first session's rows kept
+    assert steps == sorted(steps) and len(set(steps)) == len(steps) and steps[-1] == 2048
+    assert elapsed == sorted(elapsed)  # the clock continues, it does not restart
+    assert elapsed[len(first)] >= elapsed[len(first) - 1]
+    evals = list(csv.DictReader((run / "eval.csv").open()))
+    assert evals[: len(first_evals)] == first_evals and len(evals) > len(first_evals)
+    clocks = [float(r["wall_clock_s"]) for r in evals]
+    assert clocks == sorted(clocks)
+    eval_steps = [int(r["timesteps"]) for r in evals]
+    assert eval_steps == sorted(eval_steps) and len(set(eval_steps)) == len(eval_steps)
+    done = json.loads((run / "done.json").read_text())
+    assert done["wall_clock_s"] >= clocks[-1] - 1.0

@@ -25,6 +25,7 @@ import copy
 import csv
 import importlib
 import json
+import math
 import os
 import platform
 import re
@@ -254,6 +255,7 @@ def _callbacks() -> Any:
             self.best = -np.inf
             self.env = gym.make(config.env_id, **config.pico["env_kwargs"])
             self.csv = run_dir / "eval.csv"
+            self.clock_before_s = 0.0  # the run's wall clock before this session (set by train)
 
         def _on_training_start(self) -> None:
             self.next_at = (self.num_timesteps // self.freq + 1) * self.freq
@@ -275,7 +277,7 @@ def _callbacks() -> Any:
             score = s.success_rate - s.bump_rate  # bumps end episodes too; count them twice
             row = {
                 "timesteps": self.num_timesteps,
-                "wall_clock_s": round(time.time() - self.model.start_time / 1e9, 1),
+                "wall_clock_s": round(self.clock_before_s + time.time() - self.model.start_time / 1e9, 1),
                 "success_rate": s.success_rate,
                 "bump_rate": s.bump_rate,
                 "timeout": s.timeout,
@@ -572,6 +574,7 @@ def train(
             if config.pico["bc_log_std"] is not None:
                 with torch.no_grad():
                     model.policy.log_std.fill_(float(config.pico["bc_log_std"]))
+    clock_before_s = _start_session(run_dir, resumed[1] if resumed else None)
     model.set_logger(configure(str(run_dir / "tb"), ["csv", "tensorboard"]))
     EscapeStats, PeriodicEval, StopFile = _callbacks()
     (run_dir / "STOP").unlink(missing_ok=True)
@@ -586,6 +589,7 @@ def train(
         PeriodicEval(config, run_dir, int(config.pico["eval_freq"]), int(config.pico["eval_episodes"])),
         StopFile(run_dir / "STOP"),
     ]
+    callbacks[2].clock_before_s = clock_before_s
     remaining = total - model.num_timesteps
     if remaining > 0:
         model.learn(
@@ -601,7 +605,7 @@ def train(
         timesteps=model.num_timesteps,
         seed=seed,
     )
-    _copy_progress(run_dir)
+    _join_progress(run_dir)
     try:
         from pico_gym.train.plots import plot_learning_curve
 
@@ -609,8 +613,7 @@ def train(
     except ImportError:
         pass
     done = run_dir / "done.json"
-    before = json.loads(done.read_text()).get("wall_clock_s", 0.0) if done.exists() else 0.0
-    elapsed = round(before + time.perf_counter() - started, 1)  # over every session of the run
+    elapsed = round(clock_before_s + time.perf_counter() - started, 1)  # over every session of the run
     done.write_text(json.dumps({"timesteps": model.num_timesteps, "wall_clock_s": elapsed}) + "\n")
     return final
 
@@ -635,7 +638,91 @@ def _is_number(text: str) -> bool:
     return True
 
 
-def _copy_progress(run_dir: Path) -> None:
-    src = run_dir / "tb" / "progress.csv"
-    if src.exists():
-        (run_dir / "progress.csv").write_bytes(src.read_bytes())
+# --- a run's records across sessions (a resume starts a new session) ----------------------------
+# SB3's CSV logger rewrites tb/progress.csv when a session starts, and its clock starts again. So
+# each finished or killed session's file is kept as tb/progress.<k>.csv; the run's progress.csv is
+# the sessions joined: a session's rows past the step the next one resumed from are dropped (they
+# were redone), and its `time/time_elapsed` counts from the start of the run.
+_ELAPSED = "time/time_elapsed"
+_STEPS = "time/total_timesteps"
+
+
+def _csv_rows(path: Path) -> tuple[list[str], list[dict[str, str]]]:
+    try:
+        with path.open(newline="") as f:
+            reader = csv.DictReader(f)
+            return list(reader.fieldnames or []), list(reader)
+    except (OSError, csv.Error):
+        return [], []
+
+
+def _write_csv(path: Path, fields: list[str], rows: list[dict[str, Any]]) -> None:
+    tmp = path.with_name(path.name + ".tmp")
+    with tmp.open("w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=fields, extrasaction="ignore")
+        writer.writeheader()
+        writer.writerows(rows)
+    os.replace(tmp, path)
+
+
+def _number_or(row: dict[str, str], key: str, default: float) -> float:
+    try:
+        return float(row.get(key) or default)
+    except ValueError:
+        return default
+
+
+def _session_files(run_dir: Path) -> list[Path]:
+    files = [
+        (int(m.group(1)), f)
+        for f in (run_dir / "tb").glob("progress.*.csv")
+        if (m := re.fullmatch(r"progress\.(\d+)\.csv", f.name))
+    ]
+    return [f for _, f in sorted(files)]
+
+
+def _start_session(run_dir: Path, resumed_at: int | None) -> float:
+    """Keep the previous session's progress file, drop eval rows that the resume will redo, and
+    return the wall clock the run has spent so far [s] (0 for a new run)."""
+    tb = run_dir / "tb"
+    current = tb / "progress.csv"
+    if resumed_at is None:
+        for f in _session_files(run_dir):
+            f.unlink()
+        current.unlink(missing_ok=True)
+        return 0.0
+    if current.exists():
+        os.replace(current, tb / f"progress.{len(_session_files(run_dir))}.csv")
+    evals = run_dir / "eval.csv"
+    if evals.exists():
+        fields, rows = _csv_rows(evals)
+        kept = [r for r in rows if _number_or(r, "timesteps", 0) <= resumed_at]
+        if len(kept) != len(rows):
+            _write_csv(evals, fields, kept)
+    return sum(_number_or((_csv_rows(f)[1] or [{}])[-1], _ELAPSED, 0.0) for f in _session_files(run_dir))
+
+
+def _join_progress(run_dir: Path) -> None:
+    """Write the run's progress.csv: every session's rows, joined (see above)."""
+    sessions = [_csv_rows(f) for f in [*_session_files(run_dir), run_dir / "tb" / "progress.csv"]]
+    sessions = [(fields, rows) for fields, rows in sessions if rows]
+    if not sessions:
+        return
+    fields: list[str] = []
+    for names, _ in sessions:
+        fields += [n for n in names if n not in fields]
+    joined: list[dict[str, Any]] = []
+    offset = 0.0
+    for k, (_, rows) in enumerate(sessions):
+        resumed_at = (
+            min((_number_or(r, _STEPS, math.inf) for r in sessions[k + 1][1]), default=math.inf)
+            if k + 1 < len(sessions)
+            else math.inf
+        )
+        for row in rows:
+            if _number_or(row, _STEPS, 0.0) < resumed_at:
+                if _ELAPSED in row and row[_ELAPSED] not in ("", None):
+                    row = {**row, _ELAPSED: f"{offset + _number_or(row, _ELAPSED, 0.0):g}"}
+                joined.append(row)
+        offset += _number_or(rows[-1], _ELAPSED, 0.0)
+    _write_csv(run_dir / "progress.csv", fields, joined)
