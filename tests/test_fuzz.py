@@ -138,6 +138,10 @@ def test_an_image_over_the_pixel_budget_is_refused_before_decoding(tmp_path) -> 
         ({"points": [[0, 0], [1, 0]], "walls": [[0, 1]], "movers": {"config": 3}}, "movers: expected a list"),
         ({"points": [[0, 0], [1, 0]], "walls": [[0, 1]], "movers": [{"length": 1}]}, "movers\\[0\\]: missing key"),
         ({"heightmap": {"image": "x.png", "simplify_m": -1}}, "heightmap.simplify_m: must be in"),
+        (
+            {"points": [[0, 0], [1e6, 0]], "walls": [[0, 1]]},
+            "points: the map spans 1,000,000.0 x 0.0 m; the limit is 200 m",
+        ),
     ],
 )
 def test_bad_map_files_name_the_file_and_key(tmp_path, data: object, message: str) -> None:
@@ -268,3 +272,43 @@ def test_a_heightmap_block_is_solid_inside(tmp_path) -> None:
         _make(tmp_path, data, "room.json")
     data["start_pose"] = {"x": 1.0, "y": 2.5, "theta": 0.0}
     _make(tmp_path, data, "room.json").reset(seed=0)
+
+
+def test_a_grid_over_the_cell_budget_is_refused_before_it_is_allocated() -> None:
+    from pico_gym.world.grid import Grid
+
+    with pytest.raises(ValueError, match="a grid of 100,020 x 100,020 cells at 0.01 m.*the limit is 16,000,000"):
+        Grid.covering((0.0, 0.0, 1000.0, 1000.0), 0.01, margin=0.1)
+
+
+def _hospital_example(tmp_path, change) -> str:
+    from pico_gym.world.catalog import shipped_maps
+
+    data = json.loads(shipped_maps()["hospital_example"].read_text())
+    change(data)
+    path = tmp_path / "h.json"
+    path.write_text(json.dumps(data))
+    return str(path)
+
+
+def _start_square(cx: float, cy: float, half: float = 0.05):
+    """Make the start area (points 20-23 of the example) the square of half side `half` round (cx, cy)."""
+
+    def change(data: dict) -> None:
+        for p, (sx, sy) in zip(data["points"][20:24], [(-1, -1), (1, -1), (1, 1), (-1, 1)], strict=True):
+            p["x"], p["y"] = cx + sx * half, cy + sy * half
+
+    return change
+
+
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        (lambda d: d["walls"].append([10, 3]), "h.json: cabinets\\[0\\]: its arrival square cannot be reached"),
+        (_start_square(5.8, 0.8, 0.5), "h.json: start_area: \\(5.80, 0.80\\) is not inside the walls"),
+        (_start_square(0.1, 2.6), "h.json: start_area: \\(0.10, 2.60\\) is inside a wall or an obstacle"),
+    ],
+)
+def test_a_hospital_map_with_a_bad_start_or_cut_off_cabinet_is_refused_at_load(tmp_path, change, message) -> None:
+    with pytest.raises(MapError, match=message):
+        gym.make("PicoHospital-v0", map_path=_hospital_example(tmp_path, change))

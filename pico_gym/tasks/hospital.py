@@ -33,7 +33,7 @@ from pico_gym.validate import number
 from pico_gym.world import geometry
 from pico_gym.world.grid import CostGrid, Grid, clearance_grid
 from pico_gym.world.hospital import HospitalConfig, cabinets_of, generate_hospital
-from pico_gym.world.map import Map
+from pico_gym.world.map import Map, MapError
 from pico_gym.world.scene import MoverRecord, Movers, Scene, box_corners
 
 TIME_LIMIT_S = 600.0
@@ -204,6 +204,7 @@ class HospitalTask(ConfiguredTask):
             self._fixed_cabinets = cabinets_of(fixed_map)
             self._fixed_grid = Grid.covering(fixed_map.bounds, config.geodesic_resolution_m, margin=0.5)
             self._fixed_clearance: FloatArray | None = None
+            self._check_map(fixed_map)
         self._arrival_cost = 0.0
         self.episode: Episode | None = None
 
@@ -328,6 +329,35 @@ class HospitalTask(ConfiguredTask):
                     return closed
             k -= 1
         return ()
+
+    def _check_map(self, world: Map) -> None:
+        """What a fixed hospital map must give, checked at load (every door open, no box): a start
+        area whose centre is free for the robot's footprint and enclosed by the walls, and from
+        there a path to every cabinet's arrival square.
+
+        Raises:
+            MapError: naming the file and the key.
+        """
+        where = world.source or world.name
+        grid = self._fixed_grid
+        self._fixed_clearance = _clearance(grid, world)
+        costs = _costs(grid, self._fixed_clearance, np.zeros((0, 4)))
+        area = self._start_region(world)
+        key = "start_area" if world.start_area else "start_pose"
+        cx, cy = (float(v) for v in area.mean(axis=0))
+        r, c = _cell(grid, cx, cy)
+        mask = costs.reachable_from(cx, cy)
+        if not mask[r, c]:
+            raise MapError(f"{where}: {key}: ({cx:.2f}, {cy:.2f}) is inside a wall or an obstacle for the robot")
+        if mask[0].any() or mask[-1].any() or mask[:, 0].any() or mask[:, -1].any():
+            raise MapError(f"{where}: {key}: ({cx:.2f}, {cy:.2f}) is not inside the walls (it reaches the map's edge)")
+        for i, cab in enumerate(self._fixed_cabinets):
+            rows, cols = costs.region_cells(cab.square)
+            if not mask[rows, cols].any():
+                raise MapError(
+                    f"{where}: cabinets[{i}]: its arrival square cannot be reached from the {key} by the robot "
+                    "(with every door open)"
+                )
 
     def _start_region(self, world: Map) -> FloatArray:
         if world.start_area:

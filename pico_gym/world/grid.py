@@ -20,6 +20,10 @@ from pico_gym.jit import njit
 from pico_gym.types import FloatArray, Segments
 from pico_gym.world.geometry import point_segment_distance
 
+# A budget: the geodesic and clearance grids of a map may have at most this many cells (a 200 x 200 m
+# map at 0.05 m; each cell costs about 20 bytes over the grids an episode builds).
+MAX_GRID_CELLS = 16_000_000
+
 # 16-connected moves (dr, dc): 8 neighbours plus the knight moves.
 _MOVES = np.array(
     [
@@ -59,6 +63,11 @@ class Grid:
         xmin, ymin, xmax, ymax = bounds
         cols = int(math.ceil((xmax - xmin + 2 * margin) / resolution))
         rows = int(math.ceil((ymax - ymin + 2 * margin) / resolution))
+        if rows * cols > MAX_GRID_CELLS:
+            raise ValueError(
+                f"a grid of {cols:,} x {rows:,} cells at {resolution} m over {xmax - xmin:.1f} x {ymax - ymin:.1f} m; "
+                f"the limit is {MAX_GRID_CELLS:,} cells (a smaller map or a coarser resolution)"
+            )
         return Grid(xmin - margin, ymin - margin, resolution, (rows, cols))
 
     def centres(self) -> tuple[FloatArray, FloatArray]:

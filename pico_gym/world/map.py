@@ -43,6 +43,11 @@ _KNOWN_KEYS = {
 }
 
 
+# A budget: a map's points may span at most this much on either axis [m] (its grids grow with the
+# square of it; the course's hospitals are under 20 m).
+MAX_MAP_SIDE_M = 200.0
+
+
 class MapError(ValueError):
     """A map file is missing, unreadable or inconsistent; the message names the file and the key."""
 
@@ -292,6 +297,14 @@ def map_from_dict(data: Any, source: Path | None = None) -> Map:
         -1, 2
     )
     n = len(points)
+    if n:
+        span = points.max(axis=0) - points.min(axis=0)
+        if span.max() > MAX_MAP_SIDE_M:
+            raise _fail(
+                where,
+                "points",
+                f"the map spans {span[0]:,.1f} x {span[1]:,.1f} m; the limit is {MAX_MAP_SIDE_M:g} m a side",
+            )
     walls = _pairs(data.get("walls", []), n, where, "walls")
     cabinets = _polygons(data.get("cabinets", []), n, where, "cabinets")
     start_key = "start_area" if "start_area" in data else "start"
