@@ -145,16 +145,6 @@ def _reset_rate(env_id: str, seed: int, repeats: int, **kwargs: object) -> tuple
     return median, 1e3 * statistics.median(times)
 
 
-def _print_rate(label: str, run: Callable[[], int], repeats: int, steps: int, reference: float | None = None) -> float:
-    median, rates = _median_rate(run, repeats)
-    ratio = f"   {median / reference:5.2f}x escape" if reference else ""
-    print(
-        f"{label:<66} {median:9,.0f} steps/s{ratio}   (runs: {', '.join(f'{r:,.0f}' for r in rates)}; "
-        f"{run.resets} episode ends per {steps:,} steps)"  # type: ignore[attr-defined]
-    )
-    return median
-
-
 def bench_hospital(args: argparse.Namespace) -> int:
     """PicoHospital-v0's rows, with PicoEscape-v0's default row measured in the same run as the reference."""
     import gymnasium as gym
@@ -164,9 +154,10 @@ def bench_hospital(args: argparse.Namespace) -> int:
 
     print(f"machine : {_machine()}")
     print(f"versions: {_versions()}")
-    print(f"method  : median of {args.repeats} runs; random actions, one process; ratios to escape's row of this run\n")
-    escape = _print_rate(
-        "PicoEscape-v0, 1000 beams, defaults (reference)", _env_rate(args.steps, args.seed), args.repeats, args.steps
+    print(
+        f"method  : {args.repeats} rounds, each running every row once (interleaved, so a slow spell of a shared "
+        "machine hits all rows alike); random actions, one process; steps/s: median over the rounds; ratio: median "
+        "of each round's ratio to escape's row in that round\n"
     )
     busy = {"n_movers": (2, 2), "n_boxes": (2, 2)}
     rows = [
@@ -175,9 +166,23 @@ def bench_hospital(args: argparse.Namespace) -> int:
         ("PicoHospital-v0, hospital_2021 (its 2 movers, 0-2 boxes)", {"map": "hospital_2021"}),
         ("PicoHospital-v0, generated hospitals, defaults", {}),
     ]
-    for label, kwargs in rows:
-        run = _env_rate(args.steps, args.seed, "PicoHospital-v0", **kwargs)
-        _print_rate(label, run, args.repeats, args.steps, escape)
+    runs = [_env_rate(args.steps, args.seed)] + [
+        _env_rate(args.steps, args.seed, "PicoHospital-v0", **kwargs) for _, kwargs in rows
+    ]
+    rates: list[list[float]] = [[] for _ in runs]
+    for _ in range(args.repeats):
+        for k, run in enumerate(runs):
+            t0 = time.perf_counter()
+            count = run()
+            rates[k].append(count / (time.perf_counter() - t0))
+    labels = ["PicoEscape-v0, 1000 beams, defaults (reference)"] + [label for label, _ in rows]
+    for k, (label, run) in enumerate(zip(labels, runs, strict=True)):
+        ratios = [r / e for r, e in zip(rates[k], rates[0], strict=True)]
+        ratio = f"   {statistics.median(ratios):5.2f}x escape" if k else " " * 16
+        print(
+            f"{label:<66} {statistics.median(rates[k]):9,.0f} steps/s{ratio}   (runs: "
+            f"{', '.join(f'{r:,.0f}' for r in rates[k])}; {run.resets} episode ends per {args.steps:,} steps)"  # type: ignore[attr-defined]
+        )
     print()
     for label, kwargs in rows:
         rate, ms = _reset_rate("PicoHospital-v0", args.seed, args.repeats, **kwargs)

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 import pymunk
 
+from pico_gym.jit import njit
 from pico_gym.robot import RobotConfig
 from pico_gym.sensors.odometry import integrate_twist
 from pico_gym.types import Pose, Segments
@@ -39,6 +40,18 @@ _ROBOT = 1
 _TOUCH_M = 1e-6  # the true footprint closer than this to static geometry counts as touching it
 _CAP_TOLERANCE = 1e-9
 _KIND_BASE = 2  # collision type of kind k is _KIND_BASE + k
+
+
+@njit
+def _segments_near(segments: Segments, x: float, y: float, reach: float, out: Segments) -> int:
+    """Copy the segments whose bounding box comes within `reach` of (x, y) into out[:n]; returns n."""
+    n = 0
+    for k in range(segments.shape[0]):
+        x1, y1, x2, y2 = segments[k, 0], segments[k, 1], segments[k, 2], segments[k, 3]
+        if min(x1, x2) - reach <= x <= max(x1, x2) + reach and min(y1, y2) - reach <= y <= max(y1, y2) + reach:
+            out[n, 0], out[n, 1], out[n, 2], out[n, 3] = x1, y1, x2, y2
+            n += 1
+    return n
 
 
 @dataclass(frozen=True)
@@ -135,6 +148,8 @@ class Physics:
         self._circumradius_m = robot.circumradius_m  # a property that walks the outline: once
         self._segments = np.ascontiguousarray(segments, dtype=np.float64).reshape(-1, 4)
         self._outline = np.ascontiguousarray(robot.outline, dtype=np.float64)
+        self._near = np.empty_like(self._segments)  # the segments a contact step may reach
+        self._near_n = 0
         # The caps a contact may not push the robot past (a hair above them: the drive itself
         # reaches the commanded velocity only up to rounding).
         self._speed_cap = robot.max_speed_mps * (1.0 + _CAP_TOLERANCE)
@@ -145,8 +160,7 @@ class Physics:
         space.collision_slop = config.collision_slop_m
         codes = np.full(len(segments), WALL, dtype=np.int8) if kinds is None else kinds
         for (x1, y1, x2, y2), kind in zip(segments, codes, strict=True):
-            wall = pymunk.Segment(space.static_body, (x1, y1), (x2, y2), 0.0)
-            wall.friction = 0.0
+            wall = pymunk.Segment(space.static_body, (x1, y1), (x2, y2), 0.0)  # friction: pymunk's 0
             wall.collision_type = _KIND_BASE + int(kind)
             space.add(wall)
         self._mover_bodies: list[pymunk.Body] = []
@@ -267,6 +281,10 @@ class Physics:
         if self._mover_bodies and self._bodies_stale:
             self._place_bodies()  # where the movers went while the robot glided
         body = self.body
+        # The static segments the footprint can reach in this step (the caps bound its motion).
+        x, y = body.position
+        reach = self._circumradius_m + (self._speed_cap + self._turn_cap * self._circumradius_m) * n * h + 0.05
+        self._near_n = _segments_near(self._segments, x, y, reach, self._near)
         for _ in range(n):
             cvx, cvy, cw = self._ramp(vx, vy, w, h, robot)
             x0, y0 = body.position
@@ -313,7 +331,8 @@ class Physics:
         speed = math.hypot(vx, vy)
         if speed > speed_cap:
             body.velocity = (vx * speed_cap / speed, vy * speed_cap / speed)
-        if footprint_clearance(x, y, angle, self._outline, self._segments, _TOUCH_M) <= 0.0:
+        near = self._near[: self._near_n]
+        if footprint_clearance(x, y, angle, self._outline, near, _TOUCH_M) <= 0.0:
             body.position = (x0, y0)
             body.angle = angle0
             body.velocity = (0.0, 0.0)
@@ -340,16 +359,13 @@ class Physics:
     def _advance_movers_gliding(self, vx: float, vy: float, w: float, n: int, h: float) -> None:
         """The movers' sub-steps while the robot glides (no contact possible this step)."""
         x, y, angle = self._xya()
-        movers = self.scene.movers
-        movers.advance_gliding(x, y, angle, vx, vy, w, n, h)
+        scene = self.scene
         # The bodies sleep through a glide (no contact is possible): they are stopped once and put
         # where their movers are only when pymunk steps again.
-        if movers.velocity.any():
+        if scene.movers.glide(x, y, angle, vx, vy, w, n, h, scene.mover_segments):
             for body in self._mover_bodies:
                 body.velocity = (0.0, 0.0)
-            movers.velocity[:] = 0.0
         self._bodies_stale = True
-        self.scene.update_movers()
 
     def _glide(self, vx: float, vy: float, w: float, duration_s: float) -> None:
         """Move without contacts: exact integration, leaving the body as the sub-steps would.

@@ -40,3 +40,21 @@ def test_geodesic_goes_around_a_wall() -> None:
     expected = math.hypot(2.0, 2.0) + math.hypot(2.0, 1.5)
     assert field.lookup(4.0, 0.0) == pytest.approx(expected, rel=0.03)
     assert field.lookup(-0.5, 0.0) < 0.0  # past the line: negative
+
+
+def test_distance_at_is_the_full_fields_lookup_bit_for_bit() -> None:
+    """The early-stopping search gives exactly what the whole field's lookup gives, near walls too."""
+    from pico_gym.world.grid import CostGrid, Grid
+
+    rng = np.random.default_rng(3)
+    walls = np.array([[0, 0, 6, 0], [6, 0, 6, 4], [6, 4, 0, 4], [0, 4, 0, 0], [3, 0, 3, 3], [1.5, 1.0, 1.5, 4.0]])
+    grid = Grid.covering((0.0, 0.0, 6.0, 4.0), 0.1, margin=0.3)
+    costs = CostGrid.of(grid, walls, inflation_m=0.1)
+    rows, cols = costs.region_cells(np.array([[4.5, 1.0], [5.0, 1.0], [5.0, 1.5], [4.5, 1.5]]))
+    free = np.isfinite(costs.cost[rows, cols])
+    rows, cols = rows[free], cols[free]
+    field = costs.field_from(rows, cols, np.zeros(len(rows)))
+    for x, y in [*rng.uniform((0.05, 0.05), (5.95, 3.95), size=(60, 2)), (1.55, 2.0), (2.95, 1.0), (7.0, 2.0)]:
+        expected = field.lookup(float(x), float(y))
+        got = costs.distance_at(rows, cols, float(x), float(y))
+        assert got == expected or (math.isinf(got) and math.isinf(expected)), (x, y, got, expected)

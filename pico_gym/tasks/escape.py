@@ -189,7 +189,7 @@ class EscapeTask(ConfiguredTask):
         self._finish_point = np.zeros(2)
         self._finish_normal = np.zeros(2)
         self._progress: GeodesicProgress | None = None
-        self.fixed_finish = np.zeros((2, 2))
+        self._line = (0.0,) * 8  # the finish segment, its point and outward normal
         self._out = False  # the centre went out through the finish segment (and not back)
         if fixed_map is not None:
             self._check_map(fixed_map)
@@ -220,7 +220,9 @@ class EscapeTask(ConfiguredTask):
         rear = float(-self.robot.outline[:, 0].min())
         shortest = field.lookup(start.x, start.y) + rear
         self._progress = GeodesicProgress(field, start)
-        self.fixed_finish = np.asarray(world.finish, dtype=np.float64)
+        (ax, ay), (bx, by) = np.asarray(world.finish, dtype=np.float64).tolist()
+        p, n = self._finish_point.tolist(), self._finish_normal.tolist()
+        self._line = (ax, ay, bx, by, p[0], p[1], n[0], n[1])  # plain floats for the step
         self._out = False
         # Every door of an escape map is closed (a door leaf is part of the room).
         scene = Scene(world, closed_doors=tuple(range(len(world.door_segments))))
@@ -319,17 +321,14 @@ class EscapeTask(ConfiguredTask):
         """+1 when the robot's centre went out through the finish line segment in this step, -1
         when it came back in through it, 0 otherwise (crossing the line's extension beside the
         corridor is no crossing)."""
-        a, b = self.fixed_finish
-        if not geometry.segments_intersect(before.x, before.y, after.x, after.y, a[0], a[1], b[0], b[1]):
+        ax, ay, bx, by, px, py, nx, ny = self._line
+        d0 = (before.x - px) * nx + (before.y - py) * ny
+        d1 = (after.x - px) * nx + (after.y - py) * ny
+        if (d0 <= 0.0) == (d1 <= 0.0):
+            return 0  # the centre stayed on one side of the line (the common case: no kernel call)
+        if not geometry.segments_intersect(before.x, before.y, after.x, after.y, ax, ay, bx, by):
             return 0
-        p, n = self._finish_point, self._finish_normal
-        d0 = (before.x - p[0]) * n[0] + (before.y - p[1]) * n[1]
-        d1 = (after.x - p[0]) * n[0] + (after.y - p[1]) * n[1]
-        if d0 <= 0.0 < d1:
-            return 1
-        if d1 <= 0.0 < d0:
-            return -1
-        return 0
+        return 1 if d1 > 0.0 else -1
 
     def evaluate(self, ctx: StepContext) -> StepOutcome:
         """Judge one step: its reward terms, and why the episode ends now (or None).

@@ -31,9 +31,10 @@ from pico_gym.tasks.base import (
 from pico_gym.types import FloatArray, Pose, Segments
 from pico_gym.validate import number
 from pico_gym.world import geometry
-from pico_gym.world.grid import CostGrid, Grid, clearance_grid
-from pico_gym.world.hospital import HospitalConfig, cabinets_of, generate_hospital
+from pico_gym.world.grid import CostGrid, GeodesicField, Grid, clearance_grid
+from pico_gym.world.hospital import Cabinet, HospitalConfig, cabinets_of, generate_hospital
 from pico_gym.world.map import Map, MapError
+from pico_gym.world.movers import box_corner_list
 from pico_gym.world.scene import MoverRecord, Movers, Scene, box_corners
 
 TIME_LIMIT_S = 600.0
@@ -204,6 +205,8 @@ class HospitalTask(ConfiguredTask):
             self._fixed_cabinets = cabinets_of(fixed_map)
             self._fixed_grid = Grid.covering(fixed_map.bounds, config.geodesic_resolution_m, margin=0.5)
             self._fixed_clearance: FloatArray | None = None
+            self._person_lanes: _PersonLanes | None = None
+            self._regions: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # cabinet -> its square's cells
             self._check_map(fixed_map)
         self._arrival_cost = 0.0
         self.episode: Episode | None = None
@@ -255,10 +258,13 @@ class HospitalTask(ConfiguredTask):
         costs = _costs(grid, base_clearance, np.vstack(extra_segments) if extra_segments else np.zeros((0, 4)))
         if start is None:
             start = self._sample_start(rng, area, scene, where)
-        fields = [costs.field_to_region(c.square) for c in targets]
+        cells = [self._region_cells(costs, c, world) for c in targets]
+        fields = _Fields(costs, cells)
+        # The legs after the first need only the distance at the previous cabinet's dock point; the
+        # progress field of a leg is computed when the leg begins (`_Fields`).
         legs = [fields[0].lookup(start.x, start.y)]
         for k in range(1, len(targets)):
-            legs.append(fields[k].lookup(*targets[k - 1].dock_point()))
+            legs.append(costs.distance_at(*cells[k], *targets[k - 1].dock_point()))
         shortest = float(sum(legs))
         public = HospitalTaskSpec(
             map=given_map(world),
@@ -329,6 +335,18 @@ class HospitalTask(ConfiguredTask):
                     return closed
             k -= 1
         return ()
+
+    def _region_cells(self, costs: CostGrid, cabinet: Cabinet, world: Map) -> tuple[np.ndarray, np.ndarray]:
+        """The free cells of a cabinet's arrival square (its cells cached on a fixed map)."""
+        if world is self.fixed_map:
+            cells = self._regions.get(cabinet.index)
+            if cells is None:
+                cells = self._regions[cabinet.index] = costs.region_cells(cabinet.square)
+        else:
+            cells = costs.region_cells(cabinet.square)
+        rows, cols = cells
+        free = np.isfinite(costs.cost[rows, cols])
+        return rows[free], cols[free]
 
     def _check_map(self, world: Map) -> None:
         """What a fixed hospital map must give, checked at load (every door open, no box): a start
@@ -403,10 +421,15 @@ class HospitalTask(ConfiguredTask):
         out: list[MoverRecord] = []
         if n == 0:
             return out
-        centre = area.mean(axis=0)
-        inside = _costs(grid, clearance, np.zeros((0, 4))).reachable_from(float(centre[0]), float(centre[1]))
+        lanes = self._person_lanes if world is self.fixed_map else None
+        if lanes is None:
+            centre = area.mean(axis=0)
+            inside = _costs(grid, clearance, np.zeros((0, 4))).reachable_from(float(centre[0]), float(centre[1]))
+            lanes = _PersonLanes.of(grid, np.where(inside, clearance, 0.0))
+            if world is self.fixed_map:
+                self._person_lanes = lanes  # the same every episode of a fixed map
         for _ in range(n):
-            record = _draw_person(rng, grid, np.where(inside, clearance, 0.0), area, squares, out)
+            record = _draw_person(rng, grid, lanes, area, squares, out)
             if record is not None:
                 out.append(record)
         return out
@@ -427,8 +450,9 @@ class HospitalTask(ConfiguredTask):
         n = int(rng.integers(lo, hi + 1))
         if n == 0:
             return []
-        keep_out = [area] + squares + [world.polygon(d) for d in world.doors]
-        lanes = [_mover_lane(m) for m in movers]
+        keep_out = _Keepout([area] + squares + [world.polygon(d) for d in world.doors])
+        for m in movers:
+            keep_out.add(_mover_lane(m))
         static = np.vstack(
             [world.structure_segments, world.cabinet_segments, world.obstacle_segments, world.low_segments]
         )
@@ -450,7 +474,7 @@ class HospitalTask(ConfiguredTask):
             poly = box_corners(cx, cy, yaw, float(a), float(b))
             if geometry.polygon_clearance(poly, static, 0.06) < 0.05:
                 continue
-            if _near_any(poly, keep_out + lanes + boxes, BOX_MARGIN_M):
+            if keep_out.near(poly, BOX_MARGIN_M, boxes):
                 continue
             candidate = boxes + [poly]
             segs = door_segs + [geometry.polygon_to_segments(p) for p in candidate]
@@ -556,25 +580,39 @@ def _costs(grid: Grid, base_clearance: FloatArray, extra: Segments) -> CostGrid:
     return CostGrid.from_clearance(grid, clearance, inflation_m=FIELD_INFLATION_M)
 
 
-def _near_any(p: FloatArray, others: list[FloatArray], margin: float) -> bool:
-    """Whether polygon `p` comes within `margin` of any of `others` (bounding boxes first)."""
-    if not others:
+class _Keepout:
+    """Polygons to keep away from, each with its bounding box as plain floats (computed once, as
+    the rejection samplers test many candidates against the same polygons)."""
+
+    def __init__(self, polygons: list[FloatArray] = ()) -> None:  # type: ignore[assignment]
+        self.polygons: list[FloatArray] = []
+        self.boxes: list[tuple[float, float, float, float]] = []
+        for q in polygons:
+            self.add(q)
+
+    def add(self, q: FloatArray) -> None:
+        self.polygons.append(q)
+        self.boxes.append(_bbox(q))
+
+    def near(self, p: FloatArray, margin: float, extra: list[FloatArray] = ()) -> bool:  # type: ignore[assignment]
+        """Whether polygon `p` comes within `margin` of any kept-out polygon (or of `extra`)."""
+        plx, ply, phx, phy = _bbox(p)
+        for q, (qlx, qly, qhx, qhy) in zip(
+            self.polygons + list(extra), self.boxes + [_bbox(q) for q in extra], strict=True
+        ):
+            gap = math.hypot(max(0.0, qlx - phx, plx - qhx), max(0.0, qly - phy, ply - qhy))
+            if gap < margin and _polygon_distance(p, q) < margin:
+                return True
         return False
-    lo, hi = p.min(axis=0), p.max(axis=0)
-    boxes = np.array([(*q.min(axis=0), *q.max(axis=0)) for q in others])
-    gap_x = np.maximum(0.0, np.maximum(boxes[:, 0] - hi[0], lo[0] - boxes[:, 2]))
-    gap_y = np.maximum(0.0, np.maximum(boxes[:, 1] - hi[1], lo[1] - boxes[:, 3]))
-    close = np.flatnonzero(np.hypot(gap_x, gap_y) < margin)
-    return any(_polygon_distance(p, others[i]) < margin for i in close.tolist())
 
 
-def _polygon_distance(p: FloatArray, q: FloatArray, within: float = math.inf) -> float:
-    """Distance between two polygons (0 if they overlap); at least `within` when it is that large."""
-    (plx, ply), (phx, phy) = p.min(axis=0), p.max(axis=0)
-    (qlx, qly), (qhx, qhy) = q.min(axis=0), q.max(axis=0)
-    gap = math.hypot(max(0.0, qlx - phx, plx - qhx), max(0.0, qly - phy, ply - qhy))
-    if gap >= within:
-        return gap  # the bounding boxes are already that far apart
+def _bbox(q: FloatArray) -> tuple[float, float, float, float]:
+    xs, ys = q[:, 0].tolist(), q[:, 1].tolist()
+    return min(xs), min(ys), max(xs), max(ys)
+
+
+def _polygon_distance(p: FloatArray, q: FloatArray) -> float:
+    """Distance between two polygons (0 if they overlap)."""
     if geometry.point_in_polygon(p[0, 0], p[0, 1], q) or geometry.point_in_polygon(q[0, 0], q[0, 1], p):
         return 0.0
     return float(geometry.polygon_clearance(p, geometry.polygon_to_segments(q)))
@@ -583,9 +621,10 @@ def _polygon_distance(p: FloatArray, q: FloatArray, within: float = math.inf) ->
 def _mover_lane(m: MoverRecord) -> FloatArray:
     """The rectangle a mover sweeps between its two poses."""
     (x0, y0, yaw), (x1, y1, _) = m.init_pose, m.final_pose
-    corners = np.vstack([box_corners(x0, y0, yaw, m.length, m.width), box_corners(x1, y1, yaw, m.length, m.width)])
-    lo, hi = corners.min(axis=0), corners.max(axis=0)
-    return np.array([(lo[0], lo[1]), (hi[0], lo[1]), (hi[0], hi[1]), (lo[0], hi[1])])
+    corners = box_corner_list(x0, y0, yaw, m.length, m.width) + box_corner_list(x1, y1, yaw, m.length, m.width)
+    xs, ys = [p[0] for p in corners], [p[1] for p in corners]
+    lo_x, lo_y, hi_x, hi_y = min(xs), min(ys), max(xs), max(ys)
+    return np.array([(lo_x, lo_y), (hi_x, lo_y), (hi_x, hi_y), (lo_x, hi_y)])
 
 
 # The walking person of the 2021 config (hospital-facts.md 1.6): 0.2 x 0.4 m at 0.5 m/s, ping-pong.
@@ -610,26 +649,65 @@ def _run_bounds(free: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return lo, hi
 
 
+class _Fields:
+    """The geodesic field of each leg (distance to its arrival square), computed on first use: a
+    leg's field is needed only once the robot is on it."""
+
+    def __init__(self, costs: CostGrid, cells: list[tuple[np.ndarray, np.ndarray]]) -> None:
+        self._costs = costs
+        self._cells = cells
+        self._fields: dict[int, GeodesicField] = {}
+
+    def __len__(self) -> int:
+        return len(self._cells)
+
+    def __getitem__(self, k: int) -> GeodesicField:
+        if k < 0:
+            k += len(self._cells)
+        field = self._fields.get(k)
+        if field is None:
+            rows, cols = self._cells[k]
+            field = self._fields[k] = self._costs.field_from(rows, cols, np.zeros(len(rows)))
+        return field
+
+
+@dataclass(frozen=True, eq=False)
+class _PersonLanes:
+    """Where a person may walk: the cells a path may pass through and, for each cell, its free run
+    along its row and its column (from a clearance grid that is 0 outside the building)."""
+
+    candidates: np.ndarray
+    row_lo: np.ndarray
+    row_hi: np.ndarray
+    col_lo: np.ndarray
+    col_hi: np.ndarray
+
+    @classmethod
+    def of(cls, grid: Grid, clearance: FloatArray) -> _PersonLanes:
+        need = 0.5 * PERSON_WIDTH_M + 0.15
+        free = clearance >= need
+        row_lo, row_hi = _run_bounds(free)  # each cell's free run along its row
+        col_lo, col_hi = (a.T for a in _run_bounds(np.ascontiguousarray(free.T)))
+        return cls(np.argwhere(clearance >= need + 0.05), row_lo, row_hi, col_lo, col_hi)
+
+
 def _draw_person(
     rng: np.random.Generator,
     grid: Grid,
-    clearance: FloatArray,
+    lanes: _PersonLanes,
     area: FloatArray,
     squares: list[FloatArray],
     others: list[MoverRecord],
 ) -> MoverRecord | None:
     """A walking person on a straight 2-6 m path along a grid axis with wall clearance >= half its
-    width + 0.15 m, away from the start area and the arrival squares (hospital-facts.md 3).
-    `clearance` is 0 outside the building, so the path lies inside it."""
-    need = 0.5 * PERSON_WIDTH_M + 0.15
+    width + 0.15 m, away from the start area and the arrival squares (hospital-facts.md 3);
+    `lanes` keeps the path inside the building."""
     res = grid.resolution
-    candidates = np.argwhere(clearance >= need + 0.05)
+    candidates = lanes.candidates
     if len(candidates) == 0:
         return None
-    free = clearance >= need
-    row_lo, row_hi = _run_bounds(free)  # each cell's free run along its row
-    col_lo, col_hi = (a.T for a in _run_bounds(np.ascontiguousarray(free.T)))
-    keep_out = [area] + squares + [_mover_lane(o) for o in others]
+    row_lo, row_hi, col_lo, col_hi = lanes.row_lo, lanes.row_hi, lanes.col_lo, lanes.col_hi
+    keep_out = _Keepout([area] + squares + [_mover_lane(o) for o in others])
     for _ in range(40):
         r, c = candidates[int(rng.integers(len(candidates)))]
         horizontal = bool(rng.random() < 0.5)
@@ -660,7 +738,7 @@ def _draw_person(
         )
         lane = _mover_lane(record)
         margin = 0.3 + record.half_diagonal_m
-        if _near_any(lane, keep_out, margin):
+        if keep_out.near(lane, margin):
             continue
         return record
     return None

@@ -107,37 +107,68 @@ def clearance_grid(grid: Grid, segments: Segments, cap: float = 1.0) -> FloatArr
 
 @njit
 def _dijkstra(
-    cost: FloatArray, knight_ok: np.ndarray, seeds_r: np.ndarray, seeds_c: np.ndarray, seeds_v: FloatArray, res: float
+    cost: FloatArray,
+    knight_ok: np.ndarray,
+    seeds_r: np.ndarray,
+    seeds_c: np.ndarray,
+    seeds_v: FloatArray,
+    res: float,
+    window: tuple[int, int, int, int] = (0, -1, 0, -1),
 ) -> FloatArray:
+    """Dijkstra over the cells (16 moves: 4 straight, 4 diagonal, 8 knight).
+
+    `window` (r0, r1, c0, c1), inclusive, non-empty: stop as soon as every free cell in it is
+    settled. Only those cells then hold their final distances (the rest may be unsettled)."""
     rows, cols = cost.shape
     dist = np.full((rows, cols), np.inf)
-    heap = [(0.0, 0, 0)]
+    free = np.isfinite(cost)
+    wr0, wr1, wc0, wc1 = max(window[0], 0), min(window[1], rows - 1), max(window[2], 0), min(window[3], cols - 1)
+    waiting = 0  # free cells of the window not settled yet
+    for r in range(wr0, wr1 + 1):
+        for c in range(wc0, wc1 + 1):
+            if free[r, c]:
+                waiting += 1
+    stop_early = waiting > 0
+    n_moves = _MOVES.shape[0]
+    # Half of each move's length [m] (its cost is that times the sum of the two cells' costs).
+    half = np.empty(n_moves)
+    for m in range(n_moves):
+        dr, dc = _MOVES[m, 0], _MOVES[m, 1]
+        half[m] = math.sqrt(dr * dr + dc * dc) * res * 0.5
+    # Heap entries (distance, r * cols + c): the same order as (distance, r, c), smaller tuples.
+    heap = [(0.0, 0)]
     heap.pop()
     for i in range(seeds_r.shape[0]):
         r, c = seeds_r[i], seeds_c[i]
-        if np.isfinite(cost[r, c]) and seeds_v[i] < dist[r, c]:
+        if free[r, c] and seeds_v[i] < dist[r, c]:
             dist[r, c] = seeds_v[i]
-            heapq.heappush(heap, (seeds_v[i], r, c))
+            heapq.heappush(heap, (seeds_v[i], r * cols + c))
     while len(heap) > 0:
-        d, r, c = heapq.heappop(heap)
+        d, k = heapq.heappop(heap)
+        r, c = k // cols, k % cols
         if d > dist[r, c]:
             continue
-        for m in range(_MOVES.shape[0]):
+        if stop_early and wr0 <= r <= wr1 and wc0 <= c <= wc1:
+            waiting -= 1
+            if waiting == 0:
+                return dist
+        cost_here = cost[r, c]
+        knight_here = knight_ok[r, c]
+        for m in range(n_moves):
             dr, dc = _MOVES[m, 0], _MOVES[m, 1]
             rr, cc = r + dr, c + dc
             if rr < 0 or rr >= rows or cc < 0 or cc >= cols:
                 continue
-            if not np.isfinite(cost[rr, cc]):
+            if not free[rr, cc]:
                 continue
-            if m >= 8 and not (knight_ok[r, c] and knight_ok[rr, cc]):
+            if m >= 8 and not (knight_here and knight_ok[rr, cc]):
                 continue
-            if m >= 4 and m < 8 and not (np.isfinite(cost[r + dr, c]) and np.isfinite(cost[r, c + dc])):
+            if m >= 4 and m < 8 and not (free[r + dr, c] and free[r, c + dc]):
                 continue  # no diagonal squeeze between two blocked cells
-            step = math.sqrt(dr * dr + dc * dc) * res * 0.5 * (cost[r, c] + cost[rr, cc])
-            nd = d + step
+            nd = d + half[m] * (cost_here + cost[rr, cc])
             if nd < dist[rr, cc]:
                 dist[rr, cc] = nd
-                heapq.heappush(heap, (nd, rr, cc))
+                heapq.heappush(heap, (nd, rr * cols + cc))
     return dist
 
 
@@ -271,6 +302,24 @@ class CostGrid:
             self.grid.resolution,
         )
         return GeodesicField(self.grid, distance)
+
+    def distance_at(self, seeds_r: np.ndarray, seeds_c: np.ndarray, x: float, y: float) -> float:
+        """`field_from(seeds_r, seeds_c, 0).lookup(x, y)`, bit for bit, without computing the whole
+        field: the search stops once the cells the lookup reads are settled."""
+        g = self.grid
+        fx = (x - g.x0) / g.resolution - 0.5
+        fy = (y - g.y0) / g.resolution - 0.5
+        c0, r0 = int(math.floor(fx)), int(math.floor(fy))
+        distance = _dijkstra(
+            self.cost,
+            self.knight_ok,
+            seeds_r.astype(np.int64),
+            seeds_c.astype(np.int64),
+            np.zeros(len(seeds_r)),
+            g.resolution,
+            (r0 - 2, r0 + 3, c0 - 2, c0 + 3),  # every cell `_lookup` may read
+        )
+        return float(_lookup(distance, fx, fy))
 
     def region_cells(self, polygon: FloatArray) -> tuple[np.ndarray, np.ndarray]:
         """(rows, cols) of the cells whose centres lie inside a convex polygon (free or not)."""

@@ -113,10 +113,14 @@ def mover_record(data: Any, where: str) -> MoverRecord:
 
 def box_corners(x: float, y: float, yaw: float, length: float, width: float) -> FloatArray:
     """(4, 2) corners of a length x width box centred at (x, y), its length along yaw."""
+    return np.array(box_corner_list(x, y, yaw, length, width))
+
+
+def box_corner_list(x: float, y: float, yaw: float, length: float, width: float) -> list[tuple[float, float]]:
+    """`box_corners` as plain floats (for loops over many candidate boxes)."""
     c, s = math.cos(yaw), math.sin(yaw)
     hl, hw = 0.5 * length, 0.5 * width
-    local = np.array([(hl, -hw), (hl, hw), (-hl, hw), (-hl, -hw)])
-    return np.column_stack([x + c * local[:, 0] - s * local[:, 1], y + s * local[:, 0] + c * local[:, 1]])
+    return [(x + c * lx - s * ly, y + s * lx + c * ly) for lx, ly in ((hl, -hw), (hl, hw), (-hl, hw), (-hl, -hw))]
 
 
 # State columns of `Movers.state`.
@@ -161,6 +165,34 @@ def _advance_gliding(
             rx = x + vx * sx - vy * cx
             ry = y + vx * cx + vy * sx
         _advance_one(state, params, rx, ry, h, vel)
+
+
+@njit
+def _glide_and_write(
+    state: FloatArray,
+    params: FloatArray,
+    x: float,
+    y: float,
+    theta: float,
+    vx: float,
+    vy: float,
+    w: float,
+    n: int,
+    h: float,
+    vel: FloatArray,
+    out: Segments,
+) -> bool:
+    """`_advance_gliding`, then the boxes' edges into `out`; True when a mover was moving at the
+    end (its velocity is then zeroed: the bodies sleep through a glide)."""
+    _advance_gliding(state, params, x, y, theta, vx, vy, w, n, h, vel)
+    _write_segments(state, params, out)
+    moving = False
+    for i in range(vel.shape[0]):
+        if vel[i, 0] != 0.0 or vel[i, 1] != 0.0:
+            moving = True
+            vel[i, 0] = 0.0
+            vel[i, 1] = 0.0
+    return moving
 
 
 @njit
@@ -274,6 +306,16 @@ class Movers:
         """`n` sub-steps while the robot glides with a constant body-frame twist from (x, y, theta)."""
         if self.records:
             _advance_gliding(self.state, self.params, x, y, theta, vx, vy, w, n, duration_s, self.velocity)
+
+    def glide(
+        self, x: float, y: float, theta: float, vx: float, vy: float, w: float, n: int, duration_s: float, out: Segments
+    ) -> bool:
+        """`advance_gliding` and `write_segments(out)` in one compiled call; returns whether a
+        mover had a velocity, which is then zeroed (see `Physics`: bodies sleep through a glide)."""
+        if not self.records:
+            return False
+        moving = _glide_and_write(self.state, self.params, x, y, theta, vx, vy, w, n, duration_s, self.velocity, out)
+        return bool(moving)
 
     def poses(self) -> FloatArray:
         """(n, 3) true poses (x, y, yaw)."""
