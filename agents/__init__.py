@@ -18,6 +18,7 @@ import gymnasium as gym
 from pico_gym.agents.base import Agent, RobotSpec
 
 AGENTS = ("classic", "ppo", "wall-follow", "random")
+CLASSIC_ENVS = ("PicoEscape-v0", "PicoHospital-v0")  # the classic agent has a strategy for these
 
 
 def make_agent(name: str, env: gym.Env, **kwargs: Any) -> Agent:
@@ -35,16 +36,19 @@ def make_agent(name: str, env: gym.Env, **kwargs: Any) -> Agent:
     spec = RobotSpec.of(env)
     env_spec = env.unwrapped.spec
     env_id = env_spec.id if env_spec is not None else type(env.unwrapped).__name__
-    if name in ("classic", "ppo") and env_id != "PicoEscape-v0":
-        raise ValueError(
-            f"the {name} agent plays PicoEscape-v0 only so far (the hospital agents are still to come); "
-            f"on {env_id} use: wall-follow, random"
-        )
+    if (name == "ppo" and env_id != "PicoEscape-v0") or (name == "classic" and env_id not in CLASSIC_ENVS):
+        plays = "PicoEscape-v0" if name == "ppo" else " and ".join(CLASSIC_ENVS)
+        others = "classic, wall-follow, random" if name == "ppo" and env_id in CLASSIC_ENVS else "wall-follow, random"
+        raise ValueError(f"the {name} agent plays {plays} only so far; on {env_id} use: {others}")
     if env.action_space.shape != (3,):
         raise ValueError(
             f"pico-gym's agents act with a twist (vx, vy, w); {env_id} here takes {env.action_space.shape[0]} "
             "action components (arrival='announce'): use arrival='dwell'"
         )
+    if name == "classic" and env_id == "PicoHospital-v0":
+        from pico_gym.agents.classic.hospital import HospitalAgent
+
+        return HospitalAgent(spec, **kwargs)
     if name == "classic":
         from pico_gym.agents.classic.agent import ClassicAgent
 

@@ -271,6 +271,10 @@ class Localiser:
                 break
         return Pose(float(x), float(y), float(math.remainder(th, 2 * math.pi)))
 
+    def distance_at(self, xs: FloatArray, ys: FloatArray) -> FloatArray:
+        """The field (distance to the nearest wall of the map) at map-frame points [m]."""
+        return _field_at(self.field, np.asarray(xs, dtype=np.float64), np.asarray(ys, dtype=np.float64))
+
     def explained(self, pose: Pose, points: FloatArray) -> float:
         """The fraction of end points within `explained_within` of a wall of the map."""
         pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)

@@ -1,0 +1,516 @@
+"""The classic hospital agent: localise on the given map, plan around what the map does not show,
+dock at every cabinet in order.
+
+It knows what the course gave the teams (`info["task"]` at reset: the given map and the cabinet
+order, the arrival rule) and senses with the LRF and odometry; nothing else. Each step:
+
+    scan -> pose (odometry prediction, then scan-to-map registration, with a health check)
+         -> evidence grid (end points the map does not explain accumulate; beams passing clear)
+         -> state machine -> A* on the inflated map + evidence -> potential field -> safety filter
+
+The states:
+
+    LOCALISE  turn in place, joining scans at their odometry offsets, until one pose of the start
+              area (any heading) explains them clearly better than any other (`Localiser`)
+    NAVIGATE  follow an A* path (string-pulled) to the next cabinet's dock point, driving sideways
+              (the robot's 0.2 m depth across the way, as through a 0.5 m door)
+    DOCK      servo the pose into the arrival square, facing the front
+    DWELL     stand still for the task's dwell time, then take the next cabinet
+    RECOVER   no path or no progress: back off, fade (never wipe) the evidence, plan again
+    DONE      every cabinet visited
+
+Not built yet (see the issue): people tracking and yielding outside their pause radius, docking
+servoed on the cabinet's front line as the LRF sees it, the announce arrival mode, a whole-map
+relocalisation.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from enum import Enum
+from typing import Any
+
+import numpy as np
+
+from pico_gym.agents.base import Agent, RobotSpec
+from pico_gym.agents.classic.astar import astar, string_pull
+from pico_gym.agents.classic.localisation import Localiser, scan_points
+from pico_gym.agents.classic.potential_field import (
+    MotionConfig,
+    attract_and_repel,
+    heading_rate,
+    keep_in_view,
+    safety_filter,
+)
+from pico_gym.jit import njit
+from pico_gym.overlay import Overlay
+from pico_gym.types import FloatArray, Pose
+from pico_gym.world.geometry import compose, inverse, wrap_angle
+from pico_gym.world.grid import Grid, clearance_grid
+from pico_gym.world.hospital import Cabinet, cabinets_of
+
+
+class State(Enum):
+    LOCALISE = "localise"
+    NAVIGATE = "navigate"
+    DOCK = "dock"
+    DWELL = "dwell"
+    RECOVER = "recover"
+    DONE = "done"
+
+
+@dataclass(frozen=True)
+class HospitalAgentConfig:
+    """Parameters of the classic hospital agent (SI units).
+
+    Attributes:
+        cell_m: planning and evidence grid resolution [m].
+        inflate_m: the robot's centre keeps this far from walls when planning [m] (its half
+            depth 0.1 m + margin: it drives sideways).
+        replan_s: plan again at least this often [s].
+        lookahead_m: the path point this far ahead is the set-point [m].
+        dock_depth_m: the dock point's distance from the cabinet's front [m] (the best poses
+            are 0.3-0.4 m deep, hospital-facts.md 1.8).
+        dock_radius_m: within this of the dock point, NAVIGATE hands over to DOCK [m].
+        dock_speed: speed limit while docking [m/s].
+        dwell_margin_s: stand still this much longer than the task's dwell time [s].
+        face_within_m: turn to face the cabinet once this close to the dock point [m].
+        unexplained_m: an end point farther than this from every wall of the map is evidence of
+            something the map does not show [m].
+        evidence_hit, evidence_miss, evidence_block, evidence_max: the evidence grid's counts: a
+            hit adds, a beam passing through subtracts, a cell at `evidence_block` or more is
+            an obstacle, none exceeds `evidence_max`.
+        localise_turn_rad: LOCALISE searches again after turning this much [rad].
+        health_min: below this fraction of explained beams the registration is not trusted.
+        stuck_s: no progress towards the goal for this long means RECOVER [s].
+        recover_s: how long RECOVER backs off [s].
+        beams: beams per scan the localiser uses.
+    """
+
+    cell_m: float = 0.05
+    inflate_m: float = 0.15
+    replan_s: float = 1.0
+    lookahead_m: float = 0.4
+    dock_depth_m: float = 0.33
+    dock_radius_m: float = 0.5
+    dock_speed: float = 0.25
+    dwell_margin_s: float = 0.3
+    face_within_m: float = 1.0
+    unexplained_m: float = 0.15
+    evidence_hit: float = 1.0
+    evidence_miss: float = 0.34
+    evidence_block: float = 2.0
+    evidence_max: float = 6.0
+    localise_turn_rad: float = 0.6
+    health_min: float = 0.4
+    stuck_s: float = 8.0
+    recover_s: float = 1.5
+    beams: int = 90
+
+
+@njit
+def _update_evidence(
+    evidence: FloatArray,
+    x0: float,
+    y0: float,
+    res: float,
+    ox: float,
+    oy: float,
+    ex: FloatArray,
+    ey: FloatArray,
+    unexplained: np.ndarray,
+    hit: float,
+    miss: float,
+    top: float,
+) -> None:
+    """Beams from (ox, oy) to their end points: cells a beam passes through lose `miss` (up to
+    0.15 m before its end), an unexplained end point's cell gains `hit`."""
+    rows, cols = evidence.shape
+    for i in range(ex.shape[0]):
+        dx, dy = ex[i] - ox, ey[i] - oy
+        length = math.hypot(dx, dy)
+        n = int((length - 0.15) / (0.5 * res))
+        for k in range(n):
+            t = (k * 0.5 * res) / length
+            c = int((ox + t * dx - x0) / res)
+            r = int((oy + t * dy - y0) / res)
+            if 0 <= r < rows and 0 <= c < cols and evidence[r, c] > 0.0:
+                evidence[r, c] = max(0.0, evidence[r, c] - miss)
+        if unexplained[i]:
+            c = int((ex[i] - x0) / res)
+            r = int((ey[i] - y0) / res)
+            if 0 <= r < rows and 0 <= c < cols:
+                evidence[r, c] = min(top, evidence[r, c] + hit)
+
+
+def _sample_segments(segments: FloatArray, spacing: float) -> FloatArray:
+    """Points along segments, at most `spacing` apart (both ends included)."""
+    out = []
+    for x1, y1, x2, y2 in np.asarray(segments, dtype=np.float64):
+        n = max(1, int(math.ceil(math.hypot(x2 - x1, y2 - y1) / spacing)))
+        t = np.linspace(0.0, 1.0, n + 1)
+        out.append(np.column_stack([x1 + t * (x2 - x1), y1 + t * (y2 - y1)]))
+    return np.vstack(out) if out else np.zeros((0, 2))
+
+
+@njit
+def _dilate(mask: np.ndarray, radius_cells: int) -> np.ndarray:
+    rows, cols = mask.shape
+    out = np.zeros((rows, cols), dtype=np.bool_)
+    r2 = radius_cells * radius_cells
+    for r in range(rows):
+        for c in range(cols):
+            if mask[r, c]:
+                for dr in range(-radius_cells, radius_cells + 1):
+                    for dc in range(-radius_cells, radius_cells + 1):
+                        if dr * dr + dc * dc <= r2:
+                            rr, cc = r + dr, c + dc
+                            if 0 <= rr < rows and 0 <= cc < cols:
+                                out[rr, cc] = True
+    return out
+
+
+class HospitalAgent(Agent):
+    """The classic hospital strategy (see the module docstring)."""
+
+    name = "classic"
+
+    def __init__(
+        self, spec: RobotSpec, config: HospitalAgentConfig | None = None, motion: MotionConfig | None = None
+    ) -> None:
+        super().__init__(spec)
+        self.config = config or HospitalAgentConfig()
+        noise = spec.lrf.noise_m
+        self.motion = motion or MotionConfig(
+            max_speed=spec.robot.max_speed_mps,
+            max_turn=spec.robot.max_turn_rate_radps,
+            margin=0.03 + noise,
+            slack=noise,
+        )
+        self.angles = spec.beam_angles
+        self._task: Any = None
+        self._steps = lambda seconds: max(1, round(seconds / spec.dt_s))
+
+    # --- episode ----------------------------------------------------------------------------
+    def reset(self, obs: dict[str, np.ndarray], info: dict[str, Any] | None = None) -> None:
+        """Start an episode: needs `info["task"]` (the given map and the cabinet order)."""
+        task = (info or {}).get("task")
+        if task is None:
+            raise ValueError("the classic hospital agent needs info['task'] from reset (the given map and order)")
+        cfg = self.config
+        if task is not self._task:
+            world = task.map
+            self._task = task
+            self.localiser = Localiser(world.wall_segments)
+            self.cabinets: tuple[Cabinet, ...] = cabinets_of(world)
+            self.grid = Grid.covering(world.bounds, cfg.cell_m, margin=0.3)
+            walls = np.vstack([world.wall_segments, world.cabinet_segments])
+            self.map_blocked = clearance_grid(self.grid, walls, cap=0.5) < cfg.inflate_m
+            self.start_region = world.polygon(world.start_area[0]) if world.start_area else None
+            self.wall_points = _sample_segments(walls, 0.04)  # the map's walls as points, map frame
+        self.order = list(task.cabinet_order)
+        self.dwell_s = float(task.dwell_s)
+        self.evidence = np.zeros(self.grid.shape)
+        self.state = State.LOCALISE
+        self.state_steps = 0
+        self.done = 0
+        self.pose = Pose(0.0, 0.0, 0.0)
+        self.localised = False
+        self.odom0: Pose | None = None
+        self.odom_prev: Pose | None = None
+        self.loc_points: list[FloatArray] = []
+        self.turned_since_search = math.inf
+        self.turned_total = 0.0
+        self.unhealthy_steps = 0
+        self.path: list[FloatArray] = []
+        self.plan_step = -(10**9)
+        self.steps = 0
+        self.best_distance = math.inf
+        self.progress_step = 0
+        self.side = 0.0
+        self.target: FloatArray | None = None
+        self.health = 0.0
+        self.localise_s: float | None = None
+
+    def belief(self) -> Pose | None:
+        """The agent's estimate of its pose in the map frame (None before it has localised)."""
+        return self.pose if self.localised else None
+
+    def _go(self, state: State) -> None:
+        self.state = state
+        self.state_steps = 0
+        self.path = []
+        self.plan_step = -(10**9)
+        self.best_distance = math.inf
+        self.progress_step = self.steps
+
+    # --- the step -----------------------------------------------------------------------------
+    def act(self, obs: dict[str, np.ndarray]) -> np.ndarray:
+        cfg, lrf = self.config, self.spec.lrf
+        ranges = np.asarray(obs["lrf"], dtype=np.float64)
+        odom = Pose(*(float(v) for v in obs["odom"]))
+        self.steps += 1
+        self.state_steps += 1
+        points = scan_points(ranges, self.angles, lrf.range_max_m, cfg.beams)
+        if self.odom0 is None:
+            self.odom0 = odom
+        if self.localised:
+            self._track(odom, points)
+        self.odom_prev = odom
+        near = scan_points(ranges, self.angles, lrf.range_max_m, len(ranges))
+        near = near[np.hypot(near[:, 0], near[:, 1]) < 1.2]
+        if self.localised:
+            # The blind sector behind the robot: the map's walls and what the evidence holds there.
+            behind = self._remembered()
+            near = np.vstack([near, behind[np.abs(np.arctan2(behind[:, 1], behind[:, 0])) > lrf.angle_max_rad - 0.05]])
+
+        handler = {
+            State.LOCALISE: self._localise,
+            State.NAVIGATE: self._navigate,
+            State.DOCK: self._dock,
+            State.DWELL: self._dwell,
+            State.RECOVER: self._recover,
+            State.DONE: lambda pts: (0.0, 0.0, 0.0),
+        }[self.state]
+        vx, vy, w = handler(near) if self.state is not State.LOCALISE else self._localise(odom, points, near)
+        v = keep_in_view(np.array([vx, vy]), self.motion)
+        vx, vy, w = safety_filter(near, (float(v[0]), float(v[1]), float(w)), self.motion)
+        return np.array([vx, vy, w], dtype=np.float32)
+
+    # --- localisation ---------------------------------------------------------------------------
+    def _track(self, odom: Pose, points: FloatArray) -> None:
+        """Odometry prediction, then registration against the map if enough beams agree."""
+        cfg = self.config
+        predicted = compose(self.pose, compose(inverse(self.odom_prev), odom))
+        pose = self.localiser.refine(predicted, points)
+        health = self.localiser.explained(pose, points)
+        self.health = health
+        if health >= cfg.health_min and math.hypot(pose.x - predicted.x, pose.y - predicted.y) < 0.2:
+            self.pose = pose
+            self.unhealthy_steps = 0
+        else:
+            self.pose = predicted
+            self.unhealthy_steps += 1
+            if self.unhealthy_steps >= self._steps(3.0):
+                self._relocalise_near(points)
+        self._update_world(points)
+
+    def _relocalise_near(self, points: FloatArray) -> None:
+        """A local global search (1 x 1 m around the estimate, any heading)."""
+        x, y = self.pose.x, self.pose.y
+        region = np.array([[x - 0.5, y - 0.5], [x + 0.5, y - 0.5], [x + 0.5, y + 0.5], [x - 0.5, y + 0.5]])
+        result = self.localiser.global_search(region, points)
+        if result.margin > self.localiser.config.unique_margin:
+            self.pose = result.pose
+        self.unhealthy_steps = 0
+
+    def _localise(self, odom: Pose, points: FloatArray, near: FloatArray) -> tuple[float, float, float]:
+        cfg = self.config
+        offset = compose(inverse(self.odom0), odom)  # this scan's pose in the first scan's frame
+        if self.odom_prev is not None and self.loc_points:
+            self.turned_total += abs(wrap_angle(odom.theta - self.odom_prev.theta))
+        if self.turned_since_search >= cfg.localise_turn_rad:
+            c, sn = math.cos(offset.theta), math.sin(offset.theta)
+            moved = np.column_stack(
+                [offset.x + c * points[:, 0] - sn * points[:, 1], offset.y + sn * points[:, 0] + c * points[:, 1]]
+            )
+            self.loc_points.append(moved)
+            region = self.start_region
+            if region is None:  # no start area given: the whole map
+                x0, y0, x1, y1 = self._task.map.bounds
+                region = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
+            result = self.localiser.global_search(region, np.vstack(self.loc_points))
+            self.turned_since_search = 0.0
+            if result.margin > self.localiser.config.unique_margin or self.turned_total > 2.0 * math.pi:
+                self.pose = compose(result.pose, offset)
+                self.localised = True
+                self.localise_s = self.steps * self.spec.dt_s
+                self._update_world(points)
+                self._go(State.NAVIGATE)
+                return 0.0, 0.0, 0.0
+        turn = 0.8 * self.motion.max_turn
+        self.turned_since_search += turn * self.spec.dt_s
+        return 0.0, 0.0, turn
+
+    # --- world model ---------------------------------------------------------------------------
+    def _update_world(self, points: FloatArray) -> None:
+        cfg, g = self.config, self.grid
+        c, s = math.cos(self.pose.theta), math.sin(self.pose.theta)
+        ex = self.pose.x + c * points[:, 0] - s * points[:, 1]
+        ey = self.pose.y + s * points[:, 0] + c * points[:, 1]
+        d = self.localiser.distance_at(ex, ey)
+        _update_evidence(
+            self.evidence,
+            g.x0,
+            g.y0,
+            g.resolution,
+            self.pose.x,
+            self.pose.y,
+            np.ascontiguousarray(ex),
+            np.ascontiguousarray(ey),
+            d > cfg.unexplained_m,
+            cfg.evidence_hit,
+            cfg.evidence_miss,
+            cfg.evidence_max,
+        )
+
+    def _remembered(self) -> FloatArray:
+        """Robot-frame points within 1.2 m: the map's walls and the evidence cells."""
+        g = self.grid
+        rows, cols = np.nonzero(self.evidence >= self.config.evidence_block)
+        seen = np.column_stack([g.x0 + (cols + 0.5) * g.resolution, g.y0 + (rows + 0.5) * g.resolution])
+        pts = np.vstack([self.wall_points, seen])
+        d = pts - np.array([self.pose.x, self.pose.y])
+        d = d[(np.abs(d[:, 0]) < 1.2) & (np.abs(d[:, 1]) < 1.2)]
+        c, s = math.cos(self.pose.theta), math.sin(self.pose.theta)
+        return np.column_stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]])
+
+    def blocked(self) -> np.ndarray:
+        """The planning grid: the map inflated, plus the evidence of what it does not show."""
+        cfg = self.config
+        seen = self.evidence >= cfg.evidence_block
+        if not seen.any():
+            return self.map_blocked.copy()
+        return self.map_blocked | _dilate(seen, int(math.ceil((cfg.inflate_m + 0.05) / cfg.cell_m)))
+
+    def _cell(self, p: FloatArray) -> tuple[int, int]:
+        g = self.grid
+        r = int(np.clip((p[1] - g.y0) / g.resolution, 0, g.shape[0] - 1))
+        c = int(np.clip((p[0] - g.x0) / g.resolution, 0, g.shape[1] - 1))
+        return r, c
+
+    def _centre(self, cell: tuple[int, int]) -> FloatArray:
+        g = self.grid
+        return np.array([g.x0 + (cell[1] + 0.5) * g.resolution, g.y0 + (cell[0] + 0.5) * g.resolution])
+
+    def _plan(self, goal: FloatArray) -> bool:
+        blocked = self.blocked()
+        here = np.array([self.pose.x, self.pose.y])
+        start, end = self._cell(here), self._cell(goal)
+        k = int(self.config.inflate_m / self.config.cell_m)
+        for r, c in (start, end):  # the robot's own cell (and the goal's) may touch the inflation
+            blocked[max(r - k, 0) : r + k + 1, max(c - k, 0) : c + k + 1] = False
+        path = astar(blocked, start, end)
+        self.plan_step = self.steps
+        if path is None:
+            self.path = []
+            return False
+        cells = string_pull(blocked, path.cells)
+        self.path = [self._centre(c) for c in cells[1:]] + [goal]
+        return True
+
+    # --- motion helpers ---------------------------------------------------------------------------
+    def _to_robot(self, p: FloatArray) -> FloatArray:
+        d = np.asarray(p) - np.array([self.pose.x, self.pose.y])
+        c, s = math.cos(self.pose.theta), math.sin(self.pose.theta)
+        return np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1]])
+
+    def _cabinet(self) -> Cabinet:
+        return self.cabinets[self.order[self.done]]
+
+    def _dock_point(self) -> FloatArray:
+        return self._cabinet().dock_point(self.config.dock_depth_m)
+
+    def _progress(self, distance: float) -> bool:
+        """Track progress to the goal; True when there was none for `stuck_s`."""
+        if distance < self.best_distance - 0.1:
+            self.best_distance = distance
+            self.progress_step = self.steps
+        return self.steps - self.progress_step > self._steps(self.config.stuck_s)
+
+    # --- states --------------------------------------------------------------------------------
+    def _navigate(self, near: FloatArray) -> tuple[float, float, float]:
+        cfg = self.config
+        goal = self._dock_point()
+        here = np.array([self.pose.x, self.pose.y])
+        distance = float(np.linalg.norm(goal - here))
+        if distance < cfg.dock_radius_m:
+            self._go(State.DOCK)
+            return 0.0, 0.0, 0.0
+        if self._progress(distance):
+            self._go(State.RECOVER)
+            return 0.0, 0.0, 0.0
+        if not self.path or self.steps - self.plan_step >= self._steps(cfg.replan_s) or self._path_blocked():
+            if not self._plan(goal):
+                self._go(State.RECOVER)
+                return 0.0, 0.0, 0.0
+        while len(self.path) > 1 and np.linalg.norm(self.path[0] - here) < cfg.lookahead_m:
+            self.path.pop(0)
+        target = self.path[0]
+        self.target = target
+        v = attract_and_repel(near, self._to_robot(target), self.motion)
+        travel = math.atan2(target[1] - here[1], target[0] - here[0])
+        if distance < cfg.face_within_m:
+            heading = self._cabinet().facing_rad
+        else:
+            # Sideways: the direction of travel at the robot's +y (or -y, whichever is nearer).
+            if self.side == 0.0 or self.state_steps % self._steps(2.0) == 0:
+                left = abs(wrap_angle(travel - math.pi / 2 - self.pose.theta))
+                right = abs(wrap_angle(travel + math.pi / 2 - self.pose.theta))
+                self.side = 1.0 if left <= right else -1.0
+            heading = travel - self.side * math.pi / 2
+        return float(v[0]), float(v[1]), heading_rate(heading - self.pose.theta, self.motion)
+
+    def _path_blocked(self) -> bool:
+        """Whether the next stretch of the path runs through a cell now blocked by evidence."""
+        seen = self.evidence >= self.config.evidence_block
+        if not seen.any() or not self.path:
+            return False
+        here = np.array([self.pose.x, self.pose.y])
+        for a, b in zip([here, *self.path[:-1]], self.path[:3], strict=False):
+            for t in np.linspace(0.0, 1.0, max(2, int(np.linalg.norm(b - a) / 0.05))):
+                r, c = self._cell(a + t * (b - a))
+                if seen[max(r - 2, 0) : r + 3, max(c - 2, 0) : c + 3].any():
+                    return True
+        return False
+
+    def _dock(self, near: FloatArray) -> tuple[float, float, float]:
+        cfg = self.config
+        cab = self._cabinet()
+        goal = self._dock_point()
+        here = np.array([self.pose.x, self.pose.y])
+        error = goal - here
+        heading_error = wrap_angle(cab.facing_rad - self.pose.theta)
+        arrived, _, _ = cab.arrival(self.pose, math.radians(4.0))
+        if arrived and float(np.linalg.norm(error)) < 0.06:
+            self._go(State.DWELL)
+            return 0.0, 0.0, 0.0
+        if float(np.linalg.norm(error)) > cfg.dock_radius_m + 0.4 or self.state_steps > self._steps(15.0):
+            self._go(State.NAVIGATE)
+            return 0.0, 0.0, 0.0
+        v_map = error * min(1.5, cfg.dock_speed / max(float(np.linalg.norm(error)), 1e-9))
+        v = self._to_robot(here + v_map) if float(np.linalg.norm(v_map)) > 0 else np.zeros(2)
+        return float(v[0]), float(v[1]), heading_rate(heading_error, self.motion)
+
+    def _dwell(self, near: FloatArray) -> tuple[float, float, float]:
+        if self.state_steps * self.spec.dt_s >= self.dwell_s + self.config.dwell_margin_s:
+            self.done += 1
+            self._go(State.DONE if self.done >= len(self.order) else State.NAVIGATE)
+        return 0.0, 0.0, 0.0
+
+    def _recover(self, near: FloatArray) -> tuple[float, float, float]:
+        if self.state_steps == 1:
+            self.evidence *= 0.5  # fade, never wipe: what is really there is seen again
+        if self.state_steps * self.spec.dt_s >= self.config.recover_s:
+            self._go(State.NAVIGATE)
+            return 0.0, 0.0, 0.0
+        v = attract_and_repel(near, np.zeros(2), self.motion, speed=0.2)
+        return float(v[0]), float(v[1]), 0.0
+
+    # --- drawing ---------------------------------------------------------------------------------
+    def overlay(self) -> Overlay:
+        """The pose estimate's path and set-point, the evidence cells (map frame)."""
+        g = self.grid
+        rows, cols = np.nonzero(self.evidence >= self.config.evidence_block)
+        evidence = np.column_stack([g.x0 + (cols + 0.5) * g.resolution, g.y0 + (rows + 0.5) * g.resolution])
+        here = np.array([self.pose.x, self.pose.y])
+        path = np.array([here, *self.path]) if self.path else np.zeros((0, 2))
+        target = f" -> cabinet {self.order[self.done]}" if self.done < len(self.order) else ""
+        return Overlay(
+            frame="map",
+            points=evidence.reshape(-1, 2),
+            path=path.reshape(-1, 2),
+            target=self.target,
+            text=f"classic: {self.state.value}{target} ({self.done}/{len(self.order)}), fit {self.health:.2f}",
+        )
