@@ -12,7 +12,8 @@ The states:
 
     LOCALISE  turn in place, joining scans at their odometry offsets, until one pose of the start
               area (any heading) explains them clearly better than any other (`Localiser`)
-    NAVIGATE  follow an A* path (string-pulled) to the next cabinet's dock point, driving sideways
+    NAVIGATE  follow an A* path (string-pulled) to the next cabinet's dock point: forward where
+              there is room (the LRF sees ahead and to both sides), sideways where it is narrow
               (the robot's 0.2 m depth across the way, as through a 0.5 m door)
     DOCK      servo the pose into the arrival square, facing the front
     DWELL     stand still for the task's dwell time, then take the next cabinet
@@ -76,6 +77,10 @@ class HospitalAgentConfig:
         dock_speed: speed limit while docking [m/s].
         dwell_margin_s: stand still this much longer than the task's dwell time [s].
         face_within_m: turn to face the cabinet once this close to the dock point [m].
+        roomy_m: drive forward where walls and evidence are at least this far from the centre
+            (here and at the set-point), else sideways [m].
+        door_approach_m: a path through a door passes waypoints this far before and after it on
+            its centre line [m].
         unexplained_m: an end point farther than this from every wall of the map is evidence of
             something the map does not show [m].
         evidence_hit, evidence_miss, evidence_block, evidence_max: the evidence grid's counts: a
@@ -97,6 +102,8 @@ class HospitalAgentConfig:
     dock_speed: float = 0.25
     dwell_margin_s: float = 0.3
     face_within_m: float = 1.0
+    roomy_m: float = 0.4
+    door_approach_m: float = 0.4
     unexplained_m: float = 0.15
     evidence_hit: float = 1.0
     evidence_miss: float = 0.34
@@ -142,6 +149,17 @@ def _update_evidence(
             r = int((ey[i] - y0) / res)
             if 0 <= r < rows and 0 <= c < cols:
                 evidence[r, c] = min(top, evidence[r, c] + hit)
+
+
+def _door_frame(polygon: FloatArray) -> tuple[FloatArray, FloatArray, float]:
+    """A door opening's centre, the unit normal through it and its half width (from its polygon:
+    the opening's long side across the way, the wall's thickness along it)."""
+    polygon = np.asarray(polygon, dtype=np.float64)
+    centre = polygon.mean(axis=0)
+    e1, e2 = polygon[1] - polygon[0], polygon[2] - polygon[1]
+    long, short = (e1, e2) if np.hypot(*e1) >= np.hypot(*e2) else (e2, e1)
+    normal = short / max(float(np.hypot(*short)), 1e-9)
+    return centre, normal, 0.5 * float(np.hypot(*long))
 
 
 def _sample_segments(segments: FloatArray, spacing: float) -> FloatArray:
@@ -206,9 +224,11 @@ class HospitalAgent(Agent):
             self.cabinets: tuple[Cabinet, ...] = cabinets_of(world)
             self.grid = Grid.covering(world.bounds, cfg.cell_m, margin=0.3)
             walls = np.vstack([world.wall_segments, world.cabinet_segments])
-            self.map_blocked = clearance_grid(self.grid, walls, cap=0.5) < cfg.inflate_m
+            self.map_clearance = clearance_grid(self.grid, walls, cap=0.5)
+            self.map_blocked = self.map_clearance < cfg.inflate_m
             self.start_region = world.polygon(world.start_area[0]) if world.start_area else None
             self.wall_points = _sample_segments(walls, 0.04)  # the map's walls as points, map frame
+            self.doors = [_door_frame(world.polygon(d)) for d in world.doors]
         self.order = list(task.cabinet_order)
         self.dwell_s = float(task.dwell_s)
         self.evidence = np.zeros(self.grid.shape)
@@ -397,8 +417,30 @@ class HospitalAgent(Agent):
             self.path = []
             return False
         cells = string_pull(blocked, path.cells)
-        self.path = [self._centre(c) for c in cells[1:]] + [goal]
+        self.path = self._through_doors([here] + [self._centre(c) for c in cells[1:]] + [goal])[1:]
         return True
+
+    def _through_doors(self, path: list[FloatArray]) -> list[FloatArray]:
+        """Cross every door of the map square on: a waypoint on its centre line before and after
+        it (string pulling cuts through a door at a slant the footprint cannot take)."""
+        out = [path[0]]
+        for a, b in zip(path[:-1], path[1:], strict=True):
+            for centre, normal, _half in self.doors:
+                da, db = float((a - centre) @ normal), float((b - centre) @ normal)
+                if da * db >= 0.0:
+                    continue  # this leg does not cross the door's line
+                t = da / (da - db)
+                cross = a + t * (b - a)
+                along = cross - centre - normal * float((cross - centre) @ normal)
+                if float(np.hypot(*along)) > _half + 0.3:
+                    continue  # crosses the line elsewhere
+                side = 1.0 if da > 0 else -1.0
+                for k in (side, -side):
+                    w = centre + k * self.config.door_approach_m * normal
+                    if float(np.linalg.norm(w - out[-1])) > 0.05:
+                        out.append(w)
+            out.append(b)
+        return out
 
     # --- motion helpers ---------------------------------------------------------------------------
     def _to_robot(self, p: FloatArray) -> FloatArray:
@@ -443,14 +485,32 @@ class HospitalAgent(Agent):
         travel = math.atan2(target[1] - here[1], target[0] - here[0])
         if distance < cfg.face_within_m:
             heading = self._cabinet().facing_rad
+        elif self._roomy(here) and self._roomy(target):
+            heading = travel  # forward: the LRF sees the way ahead and both sides
         else:
             # Sideways: the direction of travel at the robot's +y (or -y, whichever is nearer).
+            # Face the more open side (the LRF sees what may come from there; the blind back
+            # is to the nearer wall), else the nearer turn; decided afresh every 2 s.
             if self.side == 0.0 or self.state_steps % self._steps(2.0) == 0:
-                left = abs(wrap_angle(travel - math.pi / 2 - self.pose.theta))
-                right = abs(wrap_angle(travel + math.pi / 2 - self.pose.theta))
-                self.side = 1.0 if left <= right else -1.0
+                scores = []
+                for side in (1.0, -1.0):
+                    h = travel - side * math.pi / 2
+                    ahead = here + 0.6 * np.array([math.cos(h), math.sin(h)])
+                    turn = abs(wrap_angle(h - self.pose.theta))
+                    scores.append((round(float(self.map_clearance[self._cell(ahead)]), 1), -turn, side))
+                self.side = max(scores)[2]
             heading = travel - self.side * math.pi / 2
         return float(v[0]), float(v[1]), heading_rate(heading - self.pose.theta, self.motion)
+
+    def _roomy(self, p: FloatArray) -> bool:
+        """Room to drive forward (the robot's 0.4 m width across the way) at a map-frame point:
+        the map's walls and the evidence at least `roomy_m` away."""
+        r, c = self._cell(p)
+        if self.map_clearance[r, c] < self.config.roomy_m:
+            return False
+        k = int(math.ceil(self.config.roomy_m / self.config.cell_m))
+        window = self.evidence[max(r - k, 0) : r + k + 1, max(c - k, 0) : c + k + 1]
+        return not bool((window >= self.config.evidence_block).any())
 
     def _path_blocked(self) -> bool:
         """Whether the next stretch of the path runs through a cell now blocked by evidence."""

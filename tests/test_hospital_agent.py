@@ -1,0 +1,95 @@
+"""The classic hospital agent: public information only, localisation, the evidence grid, docking."""
+
+from __future__ import annotations
+
+import math
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import pico_gym  # noqa: F401
+from pico_gym.agents import make_agent
+from pico_gym.agents.classic.hospital import HospitalAgent, State, _update_evidence
+
+QUIET = {"closed_doors": (0, 0), "n_boxes": (0, 0), "n_movers": (0, 0)}
+
+
+def _play(env: gym.Env, agent: HospitalAgent, seed: int, options: dict | None = None) -> tuple[dict, list]:
+    """One episode; the agent gets only the public `info["task"]` at reset. Returns the last info
+    and the localisation errors (true pose only for scoring)."""
+    obs, info = env.reset(seed=seed, options=options)
+    agent.reset(obs, {"task": info["task"]})
+    errors = []
+    while True:
+        truth = env.unwrapped.pose
+        action = agent.act(obs)
+        belief = agent.belief()
+        if belief is not None:
+            errors.append(
+                (
+                    math.hypot(belief.x - truth.x, belief.y - truth.y),
+                    abs(math.remainder(belief.theta - truth.theta, 2 * math.pi)),
+                )
+            )
+        obs, _, terminated, truncated, info = env.step(action)
+        if terminated or truncated:
+            return info, errors
+
+
+def test_make_agent_gives_the_hospital_agent_and_it_needs_the_task() -> None:
+    env = gym.make("PicoHospital-v0", map="hospital_2019")
+    agent = make_agent("classic", env)
+    assert isinstance(agent, HospitalAgent)
+    obs, _ = env.reset(seed=0)
+    with pytest.raises(ValueError, match="needs info\\['task'\\]"):
+        agent.reset(obs, {})
+
+
+def test_the_course_order_on_hospital_2019_from_public_information_only() -> None:
+    env = gym.make("PicoHospital-v0", map="hospital_2019", **QUIET)
+    agent = make_agent("classic", env)
+    info, errors = _play(env, agent, seed=3, options={"cabinet_order": [0, 1, 3]})
+    assert info["termination_reason"] == "done" and info["bumps"] == 0
+    first_dxy, first_dth = errors[0]  # at the end of initialisation
+    assert first_dxy < 0.05 and first_dth < math.radians(2.0)
+    assert max(e[0] for e in errors) < 0.1
+
+
+def test_a_closed_door_is_found_and_planned_around() -> None:
+    """Door 0 joins the bottom-left room (cabinet 1) to the hallway; closed, the way runs through
+    the middle room. The agent is not told: it sees the door leaf and goes round."""
+    env = gym.make("PicoHospital-v0", map="hospital_2019", n_boxes=(0, 0), n_movers=(0, 0))
+    agent = make_agent("classic", env)
+    info, _ = _play(env, agent, seed=5, options={"cabinet_order": [1], "closed_doors": [0]})
+    assert info["termination_reason"] == "done" and info["bumps"] == 0
+    door = env.unwrapped.episode.scene.map.polygon(env.unwrapped.episode.scene.map.doors[0])
+    g = agent.grid
+    rows, cols = np.nonzero(agent.evidence >= agent.config.evidence_block)
+    xs, ys = g.x0 + (cols + 0.5) * g.resolution, g.y0 + (rows + 0.5) * g.resolution
+    lo, hi = door.min(axis=0) - 0.1, door.max(axis=0) + 0.1
+    assert ((xs > lo[0]) & (xs < hi[0]) & (ys > lo[1]) & (ys < hi[1])).any()  # the leaf is in the grid
+
+
+def test_evidence_accumulates_on_hits_and_beams_passing_through_clear_it() -> None:
+    """What a person leaves in the grid goes once beams pass where it stood (not left as a wall)."""
+    evidence = np.zeros((40, 40))
+    ex, ey = np.array([1.0]), np.array([1.0])
+    for _ in range(3):  # a person at (1, 1), seen three times from (0.1, 0.1)
+        _update_evidence(evidence, 0.0, 0.0, 0.05, 0.1, 0.1, ex, ey, np.array([True]), 1.0, 0.34, 6.0)
+    assert evidence[20, 20] == 3.0
+    far_x, far_y = np.array([1.9]), np.array([1.9])  # it walked away: the beam now ends behind it
+    for _ in range(9):
+        _update_evidence(evidence, 0.0, 0.0, 0.05, 0.1, 0.1, far_x, far_y, np.array([False]), 1.0, 0.34, 6.0)
+    assert evidence[20, 20] == 0.0
+
+
+def test_states_are_an_enum_and_the_overlay_shows_them() -> None:
+    env = gym.make("PicoHospital-v0", map="hospital_2019", **QUIET)
+    agent = make_agent("classic", env)
+    obs, info = env.reset(seed=0)
+    agent.reset(obs, info)
+    assert agent.state is State.LOCALISE and agent.belief() is None
+    agent.act(obs)
+    assert agent.belief() is not None
+    assert "classic:" in agent.overlay().text
