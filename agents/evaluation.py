@@ -44,6 +44,14 @@ class EpisodeRecord:
     shortest_path_length: float
     min_clearance: float
     act_ms: float
+    progress: float = math.nan  # fraction of the task done (the hospital: of the cabinet order)
+    bumps_by_kind: dict[str, int] = dataclasses.field(default_factory=dict)
+    false_announcements: int = 0
+    localise_time_s: float = math.nan  # when the agent's belief() first gave a pose
+    localise_error_m: float = math.nan  # its error then (position) ...
+    localise_error_deg: float = math.nan  # ... and heading
+    max_localise_error_m: float = math.nan  # the worst position error of the belief over the run
+    near_mover_s: float = 0.0  # time the robot's centre spent within 0.5 m of a mover's box
 
     @property
     def spl(self) -> float:
@@ -68,16 +76,34 @@ def run_episode(
     """Play one seeded episode to its end."""
     obs, info = env.reset(seed=seed)
     agent.reset(obs, info)
+    order = info["task"].cabinet_order if "task" in info else None
+    belief = getattr(agent, "belief", None)
     times = []
+    localised: tuple[float, float, float] | None = None  # (time, position error, heading error)
+    worst = math.nan
+    near_mover = 0.0
+    dt = env.unwrapped.config.dt_s
     while True:
+        truth = env.unwrapped.pose  # privileged: scores the agent, never reaches it
         t0 = time.perf_counter()
         action = agent.act(obs)
         times.append(time.perf_counter() - t0)
+        estimate = belief() if belief is not None else None
+        if estimate is not None:
+            error = math.hypot(estimate.x - truth.x, estimate.y - truth.y)
+            worst = error if math.isnan(worst) else max(worst, error)
+            if localised is None:
+                heading = abs(math.remainder(estimate.theta - truth.theta, 2 * math.pi))
+                localised = (len(times) * dt, error, math.degrees(heading))
         obs, _, terminated, truncated, info = env.step(action)
+        movers = info.get("movers")
+        if movers is not None and len(movers):
+            near_mover += dt * float(_near_a_mover(info["pose"], movers, env.unwrapped.scene.movers))
         if on_step is not None:
             on_step()
         if terminated or truncated:
             break
+    progress = float(info["cabinets_done"]) / len(order) if order else float(bool(info["is_success"]))
     return EpisodeRecord(
         agent=agent_name or getattr(agent, "name", "agent"),
         seed=seed,
@@ -90,7 +116,26 @@ def run_episode(
         shortest_path_length=float(info["shortest_path_length"]),
         min_clearance=float(info["min_clearance"]),
         act_ms=1e3 * statistics.median(times),
+        progress=progress,
+        bumps_by_kind={k: int(v) for k, v in info.get("bumps_by_kind", {}).items()},
+        false_announcements=int(info.get("false_announcements", 0)),
+        localise_time_s=localised[0] if localised else math.nan,
+        localise_error_m=localised[1] if localised else math.nan,
+        localise_error_deg=localised[2] if localised else math.nan,
+        max_localise_error_m=worst,
+        near_mover_s=round(near_mover, 6),
     )
+
+
+def _near_a_mover(pose: np.ndarray, poses: np.ndarray, movers: Any, within_m: float = 0.5) -> bool:
+    """Whether the robot's centre is within `within_m` of any mover's box."""
+    for (mx, my, yaw), record in zip(np.asarray(poses).tolist(), movers.records, strict=True):
+        c, s = math.cos(yaw), math.sin(yaw)
+        dx, dy = pose[0] - mx, pose[1] - my
+        along, across = abs(c * dx + s * dy) - 0.5 * record.length, abs(-s * dx + c * dy) - 0.5 * record.width
+        if math.hypot(max(along, 0.0), max(across, 0.0)) < within_m:
+            return True
+    return False
 
 
 DEFAULT_ENV_ID = "PicoEscape-v0"
@@ -192,6 +237,15 @@ class Summary:
     sct_median: float
     min_clearance_mean: float
     act_ms_median: float
+    progress_mean: float = math.nan
+    bumps_by_kind: dict[str, int] = dataclasses.field(default_factory=dict)
+    no_false_announcement_rate: float = math.nan
+    localised_within_rate: float = math.nan  # init error < 0.05 m and 2 deg, of the episodes
+    localise_time_median_s: float = math.nan
+    localise_error_median_m: float = math.nan
+    max_localise_error_median_m: float = math.nan
+    max_localise_error_max_m: float = math.nan
+    near_mover_s_mean: float = 0.0
 
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)
@@ -214,7 +268,44 @@ def summarize(records: list[EpisodeRecord]) -> Summary:
         sct_median=float(np.median([r.sct for r in records])),
         min_clearance_mean=float(np.mean([r.min_clearance for r in records])),
         act_ms_median=float(np.median([r.act_ms for r in records])),
+        progress_mean=float(np.mean([r.progress for r in records])),
+        bumps_by_kind={k: sum(r.bumps_by_kind.get(k, 0) for r in records) for k in _kinds(records)},
+        no_false_announcement_rate=sum(r.false_announcements == 0 for r in records) / n,
+        localised_within_rate=_rate(
+            records, lambda r: r.localise_error_m < 0.05 and r.localise_error_deg < 2.0, lambda r: r.localise_error_m
+        ),
+        localise_time_median_s=_median(r.localise_time_s for r in records),
+        localise_error_median_m=_median(r.localise_error_m for r in records),
+        max_localise_error_median_m=_median(r.max_localise_error_m for r in records),
+        max_localise_error_max_m=_max(r.max_localise_error_m for r in records),
+        near_mover_s_mean=float(np.mean([r.near_mover_s for r in records])),
     )
+
+
+def _kinds(records: list[EpisodeRecord]) -> list[str]:
+    kinds: list[str] = []
+    for r in records:
+        kinds += [k for k in r.bumps_by_kind if k not in kinds]
+    return kinds
+
+
+def _median(values: Iterable[float]) -> float:
+    finite = [v for v in values if not math.isnan(v)]
+    return float(np.median(finite)) if finite else math.nan
+
+
+def _max(values: Iterable[float]) -> float:
+    finite = [v for v in values if not math.isnan(v)]
+    return float(max(finite)) if finite else math.nan
+
+
+def _rate(
+    records: list[EpisodeRecord], ok: Callable[[EpisodeRecord], bool], value: Callable[[EpisodeRecord], float]
+) -> float:
+    """The fraction of records for which `ok` holds; nan when no record has the value at all."""
+    if all(math.isnan(value(r)) for r in records):
+        return math.nan
+    return sum(bool(ok(r)) for r in records) / len(records)
 
 
 def format_summary(name: str, s: Summary) -> str:
@@ -230,5 +321,23 @@ def format_summary(name: str, s: Summary) -> str:
         ("mean min clearance", f"{s.min_clearance_mean:.3f} m"),
         ("act() compute, median", f"{s.act_ms_median:.2f} ms/step"),
     ]
+    if s.bumps_by_kind and any(s.bumps_by_kind.values()):
+        rows.insert(3, ("bumps by kind (total)", ", ".join(f"{k} {v}" for k, v in s.bumps_by_kind.items() if v)))
+    if not math.isnan(s.progress_mean) and s.progress_mean != s.success_rate:
+        rows.insert(2, ("progress (fraction done), mean", f"{100 * s.progress_mean:.1f} %"))
+    if not math.isnan(s.localised_within_rate):
+        rows += [
+            ("localised < 0.05 m and 2 deg at init", f"{100 * s.localised_within_rate:.1f} % of episodes"),
+            ("time to localise, median", f"{s.localise_time_median_s:.1f} s"),
+            (
+                "localisation error: init / run max",
+                f"{100 * s.localise_error_median_m:.1f} cm / "
+                f"{100 * s.max_localise_error_median_m:.1f} cm median, {100 * s.max_localise_error_max_m:.1f} cm worst",
+            ),
+        ]
+    if not math.isnan(s.no_false_announcement_rate) and s.no_false_announcement_rate < 1.0:
+        rows.append(("no false announcement", f"{100 * s.no_false_announcement_rate:.1f} % of episodes"))
+    if s.near_mover_s_mean > 0.0:
+        rows.append(("time within 0.5 m of a mover, mean", f"{s.near_mover_s_mean:.1f} s"))
     width = max(len(k) for k, _ in rows)
     return "\n".join([f"agent: {name}"] + [f"  {k:<{width}}  {v}" for k, v in rows])

@@ -93,3 +93,16 @@ def test_states_are_an_enum_and_the_overlay_shows_them() -> None:
     agent.act(obs)
     assert agent.belief() is not None
     assert "classic:" in agent.overlay().text
+
+
+def test_bench_records_and_summaries_carry_the_hospital_metrics() -> None:
+    from pico_gym.agents.evaluation import run_episode, summarize
+
+    env = gym.make("PicoHospital-v0", map="hospital_2019", closed_doors=(0, 0), n_boxes=(0, 0), n_movers=(1, 1))
+    record = run_episode(env, make_agent("classic", env), seed=1)
+    assert record.progress == 1.0 and record.success
+    assert set(record.bumps_by_kind) == {"wall", "cabinet", "door", "box", "mover"}
+    assert record.localise_error_m < 0.05 and record.localise_error_deg < 2.0 and record.localise_time_s <= 6.0
+    assert record.max_localise_error_m >= record.localise_error_m
+    summary = summarize([record])
+    assert summary.localised_within_rate == 1.0 and summary.progress_mean == 1.0
