@@ -119,6 +119,38 @@ def _common(p: argparse.ArgumentParser) -> None:
         help="an env option, e.g. --set noise_m=0.02 --set slip_std=0.05 (repeatable)",
     )
     p.add_argument("--policy", help=POLICY_HELP)
+    p.add_argument(
+        "--option",
+        action="append",
+        metavar="KEY=VALUE",
+        help="a reset option for every episode, a Python literal, e.g. --option 'cabinet_order=[0, 1, 3]' "
+        "(repeatable)",
+    )
+
+
+def _reset_options(args: argparse.Namespace) -> dict[str, Any]:
+    """`--option KEY=VALUE` as reset options, checked by one reset of the env (bad keys and values
+    are refused here, not in a worker)."""
+    import gymnasium as gym
+
+    options: dict[str, Any] = {}
+    for item in getattr(args, "option", None) or []:
+        key, _, text = item.partition("=")
+        if not key or not text:
+            raise ValueError(f"--option takes KEY=VALUE, got {item!r}")
+        try:
+            options[key] = ast.literal_eval(text)
+        except (ValueError, SyntaxError):
+            raise ValueError(f"--option {key}={text}: not a Python literal (a number, list, string ...)") from None
+    if options:
+        env = gym.make(args.env, **_env_options(args))
+        try:
+            env.reset(seed=args.seed, options=options)
+        except ValueError as error:
+            raise ValueError(f"--option: {error}") from None
+        finally:
+            env.close()
+    return options
 
 
 POLICY_HELP = (
@@ -186,18 +218,28 @@ def cmd_bench(args: argparse.Namespace) -> int:
     from pico_gym.agents.evaluation import format_summary, run_episodes, summarize
 
     options = _env_options(args)
+    reset_options = _reset_options(args)
     if args.json and not Path(args.json).resolve().parent.is_dir():
         raise ValueError(f"--json {args.json}: folder {Path(args.json).resolve().parent} does not exist")
     seeds = range(args.seed, args.seed + args.episodes)
     with tqdm(total=args.episodes, desc=f"{args.agent}", unit="ep", file=sys.stderr, disable=args.quiet) as bar:
         records = run_episodes(
-            args.agent, seeds, options, _agent_kwargs(args, args.agent), args.workers, bar.update, args.env, args.ray
+            args.agent,
+            seeds,
+            options,
+            _agent_kwargs(args, args.agent),
+            args.workers,
+            bar.update,
+            args.env,
+            args.ray,
+            reset_options,
         )
     summary = summarize(records)
     print(format_summary(args.agent, summary))
     last = args.seed + args.episodes - 1
     print(
         f"  env                      {args.env} {options or '(defaults: generated worlds)'}; seeds {args.seed}..{last}"
+        + (f"; reset options {reset_options}" if reset_options else "")
     )
     failures = [r for r in records if not r.success]
     if failures:
@@ -208,6 +250,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
             "agent": args.agent,
             "env_id": args.env,
             "env_options": options,
+            "reset_options": reset_options,
             "seeds": [args.seed, args.seed + args.episodes - 1],
             "summary": summary.to_dict(),
             "episodes": [r.to_dict() for r in records],

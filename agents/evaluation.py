@@ -72,9 +72,10 @@ def run_episode(
     seed: int,
     agent_name: str = "",
     on_step: Callable[[], None] | None = None,
+    options: dict[str, Any] | None = None,
 ) -> EpisodeRecord:
-    """Play one seeded episode to its end."""
-    obs, info = env.reset(seed=seed)
+    """Play one seeded episode to its end (`options`: the env's reset options)."""
+    obs, info = env.reset(seed=seed, options=options)
     agent.reset(obs, info)
     order = info["task"].cabinet_order if "task" in info else None
     belief = getattr(agent, "belief", None)
@@ -141,11 +142,14 @@ def _near_a_mover(pose: np.ndarray, poses: np.ndarray, movers: Any, within_m: fl
 DEFAULT_ENV_ID = "PicoEscape-v0"
 
 
-def _worker(job: tuple[str, str, dict[str, Any], dict[str, Any], list[int]]) -> list[EpisodeRecord]:
-    env_id, agent_name, env_kwargs, agent_kwargs, seeds = job
+Job = tuple[str, str, dict[str, Any], dict[str, Any], list[int], dict[str, Any]]
+
+
+def _worker(job: Job) -> list[EpisodeRecord]:
+    env_id, agent_name, env_kwargs, agent_kwargs, seeds, reset_options = job
     env = gym.make(env_id, **env_kwargs)
     agent = make_agent(agent_name, env, **agent_kwargs)
-    return [run_episode(env, agent, seed, agent_name) for seed in seeds]
+    return [run_episode(env, agent, seed, agent_name, options=reset_options or None) for seed in seeds]
 
 
 def run_episodes(
@@ -157,8 +161,11 @@ def run_episodes(
     progress: Callable[[int], None] | None = None,
     env_id: str = DEFAULT_ENV_ID,
     ray_address: str | None = None,
+    reset_options: dict[str, Any] | None = None,
 ) -> list[EpisodeRecord]:
     """Run an agent on seeded episodes of `env_id`; records in seed order.
+
+    `reset_options` go to every episode's `reset` (e.g. the hospital's `cabinet_order`).
 
     Episodes run in a local process pool of `workers` (default: one per core), or, with
     `ray_address` ("auto" for the cluster this machine belongs to, "ray://HEAD:10001", or "local"
@@ -171,7 +178,11 @@ def run_episodes(
     workers = max(1, min(workers or os.cpu_count() or 1, len(seeds)))
     # Small chunks keep the cores busy and the progress bar moving.
     chunk = max(1, min(10, len(seeds) // (4 * workers) or 1))
-    jobs = [(env_id, agent_name, env_kwargs, agent_kwargs, seeds[i : i + chunk]) for i in range(0, len(seeds), chunk)]
+    options = dict(reset_options or {})
+    jobs = [
+        (env_id, agent_name, env_kwargs, agent_kwargs, seeds[i : i + chunk], options)
+        for i in range(0, len(seeds), chunk)
+    ]
     records: list[EpisodeRecord] = []
     if ray_address is not None:
         return sorted(_run_on_ray(jobs, ray_address, progress), key=lambda r: r.seed)
@@ -190,7 +201,7 @@ def run_episodes(
 
 
 def _run_on_ray(
-    jobs: list[tuple[str, str, dict[str, Any], dict[str, Any], list[int]]],
+    jobs: list[Job],
     address: str,
     progress: Callable[[int], None] | None,
 ) -> list[EpisodeRecord]:
@@ -216,7 +227,7 @@ def _run_on_ray(
     return records
 
 
-def _worker_as_dicts(job: tuple[str, str, dict[str, Any], dict[str, Any], list[int]]) -> list[dict[str, Any]]:
+def _worker_as_dicts(job: Job) -> list[dict[str, Any]]:
     """`_worker` returning plain dicts: what crosses a cluster does not depend on pico-gym's classes."""
     return [r.to_dict() for r in _worker(job)]
 
