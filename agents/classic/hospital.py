@@ -27,6 +27,7 @@ relocalisation.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from enum import Enum
@@ -89,7 +90,9 @@ class HospitalAgentConfig:
         localise_turn_rad: LOCALISE searches again after turning this much [rad].
         health_min: below this fraction of explained beams the registration is not trusted.
         stuck_s: no progress towards the goal for this long means RECOVER [s].
-        recover_s: how long RECOVER backs off [s].
+        recover_s: RECOVER backs off for at most this long [s] ...
+        clear_m: ... or until what the map does not explain is this far [m] ...
+        recover_wait_s: ... then waits this long before planning again [s].
         beams: beams per scan the localiser uses.
     """
 
@@ -112,7 +115,9 @@ class HospitalAgentConfig:
     localise_turn_rad: float = 0.6
     health_min: float = 0.4
     stuck_s: float = 8.0
-    recover_s: float = 1.5
+    recover_s: float = 4.0
+    recover_wait_s: float = 2.5
+    clear_m: float = 0.9
     beams: int = 90
 
 
@@ -206,6 +211,10 @@ class HospitalAgent(Agent):
             margin=0.03 + noise,
             slack=noise,
         )
+        # Following a planned path, the plan keeps the clearance: a weak, short-range repulsion only
+        # (a strong one fights the path in narrow ways, the deadlock a course team met), and the
+        # safety filter keeps the margin.
+        self.follow = dataclasses.replace(self.motion, repulsion_range=0.12, repulsion_gain=0.004)
         self.angles = spec.beam_angles
         self._task: Any = None
         self._steps = lambda seconds: max(1, round(seconds / spec.dt_s))
@@ -252,6 +261,7 @@ class HospitalAgent(Agent):
         self.target: FloatArray | None = None
         self.health = 0.0
         self.localise_s: float | None = None
+        self._last_points = np.zeros((0, 2))
 
     def belief(self) -> Pose | None:
         """The agent's estimate of its pose in the map frame (None before it has localised)."""
@@ -273,6 +283,7 @@ class HospitalAgent(Agent):
         self.steps += 1
         self.state_steps += 1
         points = scan_points(ranges, self.angles, lrf.range_max_m, cfg.beams)
+        self._last_points = points
         if self.odom0 is None:
             self.odom0 = odom
         if self.localised:
@@ -454,6 +465,11 @@ class HospitalAgent(Agent):
     def _dock_point(self) -> FloatArray:
         return self._cabinet().dock_point(self.config.dock_depth_m)
 
+    def _remaining(self, here: FloatArray) -> float:
+        """The length of the planned way from here to its end [m]."""
+        points = [here, *self.path]
+        return float(sum(np.linalg.norm(b - a) for a, b in zip(points[:-1], points[1:], strict=True)))
+
     def _progress(self, distance: float) -> bool:
         """Track progress to the goal; True when there was none for `stuck_s`."""
         if distance < self.best_distance - 0.1:
@@ -470,18 +486,22 @@ class HospitalAgent(Agent):
         if distance < cfg.dock_radius_m:
             self._go(State.DOCK)
             return 0.0, 0.0, 0.0
-        if self._progress(distance):
-            self._go(State.RECOVER)
-            return 0.0, 0.0, 0.0
         if not self.path or self.steps - self.plan_step >= self._steps(cfg.replan_s) or self._path_blocked():
             if not self._plan(goal):
                 self._go(State.RECOVER)
                 return 0.0, 0.0, 0.0
+            remaining = self._remaining(here)
+            if remaining > self.best_distance + 0.5:  # a new, longer way round: progress counts anew
+                self.best_distance = remaining
+                self.progress_step = self.steps
         while len(self.path) > 1 and np.linalg.norm(self.path[0] - here) < cfg.lookahead_m:
             self.path.pop(0)
+        if self._progress(self._remaining(here)):  # progress along the way, not as the crow flies
+            self._go(State.RECOVER)
+            return 0.0, 0.0, 0.0
         target = self.path[0]
         self.target = target
-        v = attract_and_repel(near, self._to_robot(target), self.motion)
+        v = attract_and_repel(near, self._to_robot(target), self.follow)
         travel = math.atan2(target[1] - here[1], target[0] - here[0])
         if distance < cfg.face_within_m:
             heading = self._cabinet().facing_rad
@@ -550,13 +570,36 @@ class HospitalAgent(Agent):
         return 0.0, 0.0, 0.0
 
     def _recover(self, near: FloatArray) -> tuple[float, float, float]:
+        """Back away from what the map does not explain (a person waits while the robot is within
+        half its diagonal + 0.3 m, so a robot that waits close by waits forever), to `clear_m`
+        from it or for `recover_s`, then wait a little for it to move on, then plan again."""
+        cfg = self.config
         if self.state_steps == 1:
             self.evidence *= 0.5  # fade, never wipe: what is really there is seen again
-        if self.state_steps * self.spec.dt_s >= self.config.recover_s:
+        t = self.state_steps * self.spec.dt_s
+        unexplained = self._unexplained_near()
+        far = len(unexplained) == 0 or float(np.hypot(unexplained[:, 0], unexplained[:, 1]).min()) > cfg.clear_m
+        if t >= cfg.recover_s + cfg.recover_wait_s:
             self._go(State.NAVIGATE)
             return 0.0, 0.0, 0.0
-        v = attract_and_repel(near, np.zeros(2), self.motion, speed=0.2)
+        if t >= cfg.recover_s or far:
+            return 0.0, 0.0, 0.3  # wait, turning slowly (the LRF looks round; never idle)
+        away = -unexplained.mean(axis=0) if len(unexplained) else np.zeros(2)
+        target = 0.5 * away / max(float(np.hypot(*away)), 1e-9) if len(unexplained) else np.zeros(2)
+        v = attract_and_repel(near, target, self.motion, speed=0.25)
         return float(v[0]), float(v[1]), 0.0
+
+    def _unexplained_near(self) -> FloatArray:
+        """Robot-frame points within 1.5 m of the last scan that the map does not explain."""
+        pts = self._last_points
+        if len(pts) == 0:
+            return pts
+        c, s = math.cos(self.pose.theta), math.sin(self.pose.theta)
+        ex = self.pose.x + c * pts[:, 0] - s * pts[:, 1]
+        ey = self.pose.y + s * pts[:, 0] + c * pts[:, 1]
+        d = self.localiser.distance_at(ex, ey)
+        keep = (d > self.config.unexplained_m) & (np.hypot(pts[:, 0], pts[:, 1]) < 1.5)
+        return pts[keep]
 
     # --- drawing ---------------------------------------------------------------------------------
     def overlay(self) -> Overlay:
