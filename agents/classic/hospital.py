@@ -93,6 +93,7 @@ class HospitalAgentConfig:
         recover_s: RECOVER backs off for at most this long [s] ...
         clear_m: ... or until what the map does not explain is this far [m] ...
         recover_wait_s: ... then waits this long before planning again [s].
+        max_still_s: standing still this long (not dwelling) means RECOVER [s].
         beams: beams per scan the localiser uses.
     """
 
@@ -118,6 +119,7 @@ class HospitalAgentConfig:
     recover_s: float = 4.0
     recover_wait_s: float = 2.5
     clear_m: float = 0.9
+    max_still_s: float = 20.0
     beams: int = 90
 
 
@@ -262,6 +264,7 @@ class HospitalAgent(Agent):
         self.health = 0.0
         self.localise_s: float | None = None
         self._last_points = np.zeros((0, 2))
+        self.still_steps = 0
 
     def belief(self) -> Pose | None:
         """The agent's estimate of its pose in the map frame (None before it has localised)."""
@@ -307,6 +310,13 @@ class HospitalAgent(Agent):
         vx, vy, w = handler(near) if self.state is not State.LOCALISE else self._localise(odom, points, near)
         v = keep_in_view(np.array([vx, vy]), self.motion)
         vx, vy, w = safety_filter(near, (float(v[0]), float(v[1]), float(w)), self.motion)
+        # Never stand still long: the challenge ends a run after 30 s without movement (a dwell
+        # or a wait is short; a robot boxed in by its own safety filter is not).
+        moving = math.hypot(vx, vy) > 0.03 or abs(w) > 0.08
+        self.still_steps = 0 if moving or self.state in (State.DWELL, State.DONE) else self.still_steps + 1
+        if self.still_steps >= self._steps(self.config.max_still_s):
+            self.still_steps = 0
+            self._go(State.RECOVER)
         return np.array([vx, vy, w], dtype=np.float32)
 
     # --- localisation ---------------------------------------------------------------------------
@@ -511,24 +521,32 @@ class HospitalAgent(Agent):
             # Sideways: the direction of travel at the robot's +y (or -y, whichever is nearer).
             # Face the more open side (the LRF sees what may come from there; the blind back
             # is to the nearer wall), else the nearer turn; decided afresh every 2 s.
-            if self.side == 0.0 or self.state_steps % self._steps(2.0) == 0:
+            # Something the map does not explain close by (a person, a box) is kept in view first.
+            unexplained = self._unexplained_near()
+            if self.side == 0.0 or self.state_steps % self._steps(2.0) == 0 or len(unexplained):
+                towards = None
+                if len(unexplained):
+                    mx, my = unexplained.mean(axis=0)
+                    towards = self.pose.theta + math.atan2(my, mx)
                 scores = []
                 for side in (1.0, -1.0):
                     h = travel - side * math.pi / 2
                     ahead = here + 0.6 * np.array([math.cos(h), math.sin(h)])
                     turn = abs(wrap_angle(h - self.pose.theta))
-                    scores.append((round(float(self.map_clearance[self._cell(ahead)]), 1), -turn, side))
-                self.side = max(scores)[2]
+                    watch = 0.0 if towards is None else round(math.cos(h - towards), 1)
+                    scores.append((watch, round(float(self.map_clearance[self._cell(ahead)]), 1), -turn, side))
+                self.side = max(scores)[3]
             heading = travel - self.side * math.pi / 2
         return float(v[0]), float(v[1]), heading_rate(heading - self.pose.theta, self.motion)
 
-    def _roomy(self, p: FloatArray) -> bool:
+    def _roomy(self, p: FloatArray, within_m: float | None = None) -> bool:
         """Room to drive forward (the robot's 0.4 m width across the way) at a map-frame point:
-        the map's walls and the evidence at least `roomy_m` away."""
+        the map's walls and the evidence at least `roomy_m` (or `within_m`) away."""
+        within = self.config.roomy_m if within_m is None else within_m
         r, c = self._cell(p)
-        if self.map_clearance[r, c] < self.config.roomy_m:
+        if self.map_clearance[r, c] < within:
             return False
-        k = int(math.ceil(self.config.roomy_m / self.config.cell_m))
+        k = int(math.ceil(within / self.config.cell_m))
         window = self.evidence[max(r - k, 0) : r + k + 1, max(c - k, 0) : c + k + 1]
         return not bool((window >= self.config.evidence_block).any())
 
@@ -583,11 +601,28 @@ class HospitalAgent(Agent):
             self._go(State.NAVIGATE)
             return 0.0, 0.0, 0.0
         if t >= cfg.recover_s or far:
+            if len(near) and float(np.hypot(near[:, 0], near[:, 1]).min()) < 0.35:
+                v = attract_and_repel(near, np.zeros(2), self.motion, speed=0.15)  # room to turn first
+                return float(v[0]), float(v[1]), 0.0
             return 0.0, 0.0, 0.3  # wait, turning slowly (the LRF looks round; never idle)
-        away = -unexplained.mean(axis=0) if len(unexplained) else np.zeros(2)
-        target = 0.5 * away / max(float(np.hypot(*away)), 1e-9) if len(unexplained) else np.zeros(2)
-        v = attract_and_repel(near, target, self.motion, speed=0.25)
+        v = attract_and_repel(near, self._to_robot(self._escape_spot(unexplained)), self.motion, speed=0.25)
         return float(v[0]), float(v[1]), 0.0
+
+    def _escape_spot(self, unexplained: FloatArray) -> FloatArray:
+        """Where to back off to (map frame): of the spots 0.6 m away in 16 directions that the map
+        and the evidence leave free, the one farthest from what the map does not explain."""
+        here = np.array([self.pose.x, self.pose.y])
+        c, s = math.cos(self.pose.theta), math.sin(self.pose.theta)
+        others = here + unexplained @ np.array([[c, s], [-s, c]])  # robot frame -> map frame
+        best, best_score = here, -math.inf
+        for a in np.linspace(0.0, 2.0 * math.pi, 16, endpoint=False):
+            spot = here + 0.6 * np.array([math.cos(a), math.sin(a)])
+            if not self._roomy(spot, 0.25):
+                continue
+            score = float(np.hypot(*(others - spot).T).min()) if len(others) else 0.0
+            if score > best_score:
+                best, best_score = spot, score
+        return best
 
     def _unexplained_near(self) -> FloatArray:
         """Robot-frame points within 1.5 m of the last scan that the map does not explain."""
