@@ -47,10 +47,11 @@ class EpisodeRecord:
     progress: float = math.nan  # fraction of the task done (the hospital: of the cabinet order)
     bumps_by_kind: dict[str, int] = dataclasses.field(default_factory=dict)
     false_announcements: int = 0
-    localise_time_s: float = math.nan  # when the agent's belief() first gave a pose
-    localise_error_m: float = math.nan  # its error then (position) ...
-    localise_error_deg: float = math.nan  # ... and heading
-    max_localise_error_m: float = math.nan  # the worst position error of the belief over the run
+    # None for agents without belief() (None, not nan: records compare equal and write valid JSON)
+    localise_time_s: float | None = None  # when the agent's belief() first gave a pose
+    localise_error_m: float | None = None  # its error then (position) ...
+    localise_error_deg: float | None = None  # ... and heading
+    max_localise_error_m: float | None = None  # the worst position error of the belief over the run
     near_mover_s: float = 0.0  # time the robot's centre spent within 0.5 m of a mover's box
 
     @property
@@ -81,7 +82,7 @@ def run_episode(
     belief = getattr(agent, "belief", None)
     times = []
     localised: tuple[float, float, float] | None = None  # (time, position error, heading error)
-    worst = math.nan
+    worst: float | None = None
     near_mover = 0.0
     dt = env.unwrapped.config.dt_s
     while True:
@@ -92,7 +93,7 @@ def run_episode(
         estimate = belief() if belief is not None else None
         if estimate is not None:
             error = math.hypot(estimate.x - truth.x, estimate.y - truth.y)
-            worst = error if math.isnan(worst) else max(worst, error)
+            worst = error if worst is None else max(worst, error)
             if localised is None:
                 heading = abs(math.remainder(estimate.theta - truth.theta, 2 * math.pi))
                 localised = (len(times) * dt, error, math.degrees(heading))
@@ -120,9 +121,9 @@ def run_episode(
         progress=progress,
         bumps_by_kind={k: int(v) for k, v in info.get("bumps_by_kind", {}).items()},
         false_announcements=int(info.get("false_announcements", 0)),
-        localise_time_s=localised[0] if localised else math.nan,
-        localise_error_m=localised[1] if localised else math.nan,
-        localise_error_deg=localised[2] if localised else math.nan,
+        localise_time_s=localised[0] if localised else None,
+        localise_error_m=localised[1] if localised else None,
+        localise_error_deg=localised[2] if localised else None,
         max_localise_error_m=worst,
         near_mover_s=round(near_mover, 6),
     )
@@ -300,23 +301,24 @@ def _kinds(records: list[EpisodeRecord]) -> list[str]:
     return kinds
 
 
-def _median(values: Iterable[float]) -> float:
-    finite = [v for v in values if not math.isnan(v)]
+def _median(values: Iterable[float | None]) -> float:
+    finite = [v for v in values if v is not None]
     return float(np.median(finite)) if finite else math.nan
 
 
-def _max(values: Iterable[float]) -> float:
-    finite = [v for v in values if not math.isnan(v)]
+def _max(values: Iterable[float | None]) -> float:
+    finite = [v for v in values if v is not None]
     return float(max(finite)) if finite else math.nan
 
 
 def _rate(
-    records: list[EpisodeRecord], ok: Callable[[EpisodeRecord], bool], value: Callable[[EpisodeRecord], float]
+    records: list[EpisodeRecord], ok: Callable[[EpisodeRecord], bool], value: Callable[[EpisodeRecord], float | None]
 ) -> float:
-    """The fraction of records for which `ok` holds; nan when no record has the value at all."""
-    if all(math.isnan(value(r)) for r in records):
+    """The fraction of records with the value for which `ok` holds (a record without it fails);
+    nan when no record has it at all."""
+    if all(value(r) is None for r in records):
         return math.nan
-    return sum(bool(ok(r)) for r in records) / len(records)
+    return sum(value(r) is not None and bool(ok(r)) for r in records) / len(records)
 
 
 def format_summary(name: str, s: Summary) -> str:
