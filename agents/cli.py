@@ -123,8 +123,7 @@ def _common(p: argparse.ArgumentParser) -> None:
         "--option",
         action="append",
         metavar="KEY=VALUE",
-        help="a reset option for every episode, a Python literal, e.g. --option 'cabinet_order=[0, 1, 3]' "
-        "(repeatable)",
+        help="a reset option for every episode, a Python literal, e.g. --option 'cabinet_order=[0, 1, 3]' (repeatable)",
     )
 
 

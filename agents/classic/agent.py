@@ -34,6 +34,7 @@ from pico_gym.agents.classic.potential_field import (
     footprint_distance,
     heading_rate,
     keep_in_view,
+    motion_for,
     safety_filter,
 )
 from pico_gym.agents.classic.split_merge import Lines, Scan, preprocess, split_and_merge
@@ -85,15 +86,7 @@ class ClassicAgent(Agent):
     ) -> None:
         super().__init__(spec)
         self.config = config or ClassicConfig()
-        # The safety margin and the slack for points already inside it grow with the LRF's
-        # noise: a wall 5 cm away can read as 3 cm with +-2 cm noise.
-        noise = spec.lrf.noise_m
-        self.motion = motion or MotionConfig(
-            max_speed=spec.robot.max_speed_mps,
-            max_turn=spec.robot.max_turn_rate_radps,
-            margin=0.03 + noise,
-            slack=noise,
-        )
+        self.motion = motion or motion_for(spec)
         self.angles = spec.beam_angles
         self.reset({"lrf": np.zeros(spec.lrf.n_beams), "odom": np.zeros(3)})
 

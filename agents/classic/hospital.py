@@ -43,6 +43,7 @@ from pico_gym.agents.classic.potential_field import (
     attract_and_repel,
     heading_rate,
     keep_in_view,
+    motion_for,
     safety_filter,
 )
 from pico_gym.jit import njit
@@ -206,13 +207,7 @@ class HospitalAgent(Agent):
     ) -> None:
         super().__init__(spec)
         self.config = config or HospitalAgentConfig()
-        noise = spec.lrf.noise_m
-        self.motion = motion or MotionConfig(
-            max_speed=spec.robot.max_speed_mps,
-            max_turn=spec.robot.max_turn_rate_radps,
-            margin=0.03 + noise,
-            slack=noise,
-        )
+        self.motion = motion or motion_for(spec)
         # Following a planned path, the plan keeps the clearance: a weak, short-range repulsion only
         # (a strong one fights the path in narrow ways, the deadlock a course team met), and the
         # safety filter keeps the margin.
@@ -299,15 +294,12 @@ class HospitalAgent(Agent):
             behind = self._remembered()
             near = np.vstack([near, behind[np.abs(np.arctan2(behind[:, 1], behind[:, 0])) > lrf.angle_max_rad - 0.05]])
 
-        handler = {
-            State.LOCALISE: self._localise,
-            State.NAVIGATE: self._navigate,
-            State.DOCK: self._dock,
-            State.DWELL: self._dwell,
-            State.RECOVER: self._recover,
-            State.DONE: lambda pts: (0.0, 0.0, 0.0),
-        }[self.state]
-        vx, vy, w = handler(near) if self.state is not State.LOCALISE else self._localise(odom, points, near)
+        if self.state is State.LOCALISE:
+            vx, vy, w = self._localise(odom, points, near)
+        elif self.state is State.DONE:
+            vx, vy, w = 0.0, 0.0, 0.0
+        else:
+            vx, vy, w = getattr(self, f"_{self.state.value}")(near)
         v = keep_in_view(np.array([vx, vy]), self.motion)
         vx, vy, w = safety_filter(near, (float(v[0]), float(v[1]), float(w)), self.motion)
         # Never stand still long: the challenge ends a run after 30 s without movement (a dwell

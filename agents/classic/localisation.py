@@ -27,7 +27,8 @@ import numpy as np
 
 from pico_gym.jit import njit
 from pico_gym.types import FloatArray, Pose, Segments
-from pico_gym.world.grid import Grid, clearance_grid
+from pico_gym.world.geometry import point_segment_distance
+from pico_gym.world.grid import Grid
 
 
 @dataclass(frozen=True, eq=False)
@@ -48,14 +49,15 @@ class LikelihoodField:
         bounds = (float(xs.min()), float(ys.min()), float(xs.max()), float(ys.max()))
         grid = Grid.covering(bounds, resolution, margin=cap + resolution)
         rows, cols = grid.shape
-        nearest = _nearest_segments(grid.x0, grid.y0, resolution, rows, cols, segments, cap)
-        return cls(grid, clearance_grid(grid, segments, cap=cap), cap, segments, nearest)
+        distance, nearest = _nearest_segments(grid.x0, grid.y0, resolution, rows, cols, segments, cap)
+        return cls(grid, distance, cap, segments, nearest)
 
 
 @njit
 def _nearest_segments(
     x0: float, y0: float, res: float, rows: int, cols: int, segments: Segments, cap: float
-) -> np.ndarray:
+) -> tuple[FloatArray, np.ndarray]:
+    """`clearance_grid`'s distances (capped) and, per cell, the index of the nearest segment."""
     best = np.full((rows, cols), cap)
     out = np.full((rows, cols), -1, dtype=np.int64)
     for k in range(segments.shape[0]):
@@ -64,22 +66,14 @@ def _nearest_segments(
         c_hi = min(cols - 1, int((max(x1, x2) + cap - x0) / res) + 1)
         r_lo = max(0, int((min(y1, y2) - cap - y0) / res) - 1)
         r_hi = min(rows - 1, int((max(y1, y2) + cap - y0) / res) + 1)
-        ex, ey = x2 - x1, y2 - y1
-        length_sq = ex * ex + ey * ey
         for r in range(r_lo, r_hi + 1):
             py = y0 + (r + 0.5) * res
             for c in range(c_lo, c_hi + 1):
-                px = x0 + (c + 0.5) * res
-                t = 0.0 if length_sq == 0.0 else min(1.0, max(0.0, ((px - x1) * ex + (py - y1) * ey) / length_sq))
-                d = math.hypot(px - x1 - t * ex, py - y1 - t * ey)
+                d = point_segment_distance(x0 + (c + 0.5) * res, py, x1, y1, x2, y2)
                 if d < best[r, c]:
                     best[r, c] = d
                     out[r, c] = k
-    return out
-
-    def at(self, x: float, y: float) -> float:
-        g = self.grid
-        return float(_sample(self.distance, g.x0, g.y0, g.resolution, self.cap, x, y))
+    return best, out
 
 
 @njit

@@ -13,10 +13,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from pico_gym.types import FloatArray
+
+if TYPE_CHECKING:
+    from pico_gym.agents.base import RobotSpec
 
 
 @dataclass(frozen=True)
@@ -49,6 +53,16 @@ class MotionConfig:
     margin: float = 0.04
     slack: float = 0.005
     turn_gain: float = 2.0
+
+
+def motion_for(spec: RobotSpec) -> MotionConfig:
+    """The motion config of a robot: its limits, and a safety margin and slack for points
+    already inside it that grow with the LRF's noise (a wall 5 cm away can read as 3 cm with
+    +-2 cm noise)."""
+    noise = spec.lrf.noise_m
+    return MotionConfig(
+        max_speed=spec.robot.max_speed_mps, max_turn=spec.robot.max_turn_rate_radps, margin=0.03 + noise, slack=noise
+    )
 
 
 def footprint_distance(points: FloatArray, cfg: MotionConfig) -> tuple[FloatArray, FloatArray]:

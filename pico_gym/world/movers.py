@@ -300,17 +300,11 @@ class Movers:
             xy = np.ascontiguousarray(robot_xy, dtype=np.float64)
             _advance(self.state, self.params, xy, duration_s, self.velocity)
 
-    def advance_gliding(
-        self, x: float, y: float, theta: float, vx: float, vy: float, w: float, n: int, duration_s: float
-    ) -> None:
-        """`n` sub-steps while the robot glides with a constant body-frame twist from (x, y, theta)."""
-        if self.records:
-            _advance_gliding(self.state, self.params, x, y, theta, vx, vy, w, n, duration_s, self.velocity)
-
     def glide(
         self, x: float, y: float, theta: float, vx: float, vy: float, w: float, n: int, duration_s: float, out: Segments
     ) -> bool:
-        """`advance_gliding` and `write_segments(out)` in one compiled call; returns whether a
+        """`n` sub-steps while the robot glides with a constant body-frame twist from (x, y, theta),
+        then `write_segments(out)`, in one compiled call; returns whether a
         mover had a velocity, which is then zeroed (see `Physics`: bodies sleep through a glide)."""
         if not self.records:
             return False
