@@ -207,13 +207,101 @@ def bench_hospital(args: argparse.Namespace) -> int:
     return 0
 
 
+def _interleaved(runs: list[Callable[[], int]], repeats: int) -> list[list[float]]:
+    """Rates of each run, measured in `repeats` rounds that take every run in turn (same load)."""
+    rates: list[list[float]] = [[] for _ in runs]
+    for _ in range(repeats):
+        for k, run in enumerate(runs):
+            t0 = time.perf_counter()
+            count = run()
+            rates[k].append(count / (time.perf_counter() - t0))
+    return rates
+
+
+def bench_lrf(repeats: int, seed: int, scans: int = 300) -> None:
+    """pico-gym's exact LRF against f1tenth_gym's ray marching on the same scenes, in one run.
+
+    Per scene: pico-gym's env path (`Lrf.exact` on `Scene.lrf_static`'s choice), the public pure
+    function `lrf_ranges`, and the f1tenth-style scanner (`pico_gym.sensors.raymarch`, 1080 beams on
+    a 0.05 m raster), interleaved round by round; ratios are medians of per-round ratios.
+    """
+    import gymnasium as gym
+
+    from pico_gym.sensors.lrf import Lrf, LrfConfig, lrf_ranges
+    from pico_gym.sensors.raymarch import RayMarchScanner
+    from pico_gym.types import Pose
+    from pico_gym.world.segment_grid import GRID_MIN_SEGMENTS, SegmentGrid
+
+    lrf = Lrf(LrfConfig())
+    scenes: list[tuple[str, np.ndarray, np.ndarray | None, Pose]] = []
+    for n in (20, 100, 400, 1000, 2000):
+        scenes.append(
+            (f"{n:>4} segments (10 x 10 m room with boxes)", clutter_scene(n, seed), None, Pose(0.1, 0.05, 0.3))
+        )
+    env = gym.make("PicoHospital-v0", map="hospital_2021")
+    env.reset(seed=seed)
+    scene = env.unwrapped.scene
+    scenes.append(
+        (
+            f"hospital_2021 as shipped ({len(scene.static_seen)} segments)",
+            scene.static_seen,
+            scene.static_one_sided,
+            env.unwrapped.pose,
+        )
+    )
+    env.close()
+    noise_rng = np.random.default_rng(seed)
+    unit = np.empty(lrf.config.n_beams)
+    print("LRF scans/s (1000 beams; f1tenth-style: 1080 beams, EDT ray marching on a 0.05 m raster)")
+    print(f"{'scene':<48} {'pico-gym':>9} {'lrf_ranges':>11} {'f1tenth':>9} {'ratio':>7}")
+    for label, segs, flags, pose in scenes:
+        seen = SegmentGrid(segs, flags) if len(segs) >= GRID_MIN_SEGMENTS else segs
+        marcher = RayMarchScanner(segs)
+        angles = lrf.beam_angles
+        lrf.exact(pose, seen, None, flags)
+        lrf_ranges(pose, segs, angles, one_sided=flags)
+        marcher.scan(*pose)
+
+        def ours(seen=seen, pose=pose, flags=flags) -> int:  # noqa: ANN001
+            for _ in range(scans):
+                lrf.exact(pose, seen, None, flags)
+            return scans
+
+        def pure(segs=segs, pose=pose, flags=flags, angles=angles) -> int:  # noqa: ANN001
+            for _ in range(scans):
+                lrf_ranges(pose, segs, angles, one_sided=flags)
+            return scans
+
+        def theirs(marcher=marcher, pose=pose) -> int:  # noqa: ANN001
+            for _ in range(scans):
+                marcher.scan(*pose)
+            return scans
+
+        a, b, c = _interleaved([ours, pure, theirs], repeats)
+        ratio = statistics.median(x / y for x, y in zip(a, c, strict=True))
+        print(
+            f"{label:<48} {statistics.median(a):9,.0f} {statistics.median(b):11,.0f} "
+            f"{statistics.median(c):9,.0f} {ratio:6.2f}x"
+        )
+
+    def draws() -> int:
+        for _ in range(scans):
+            noise_rng.random(out=unit)
+        return scans
+
+    median, _ = _median_rate(draws, repeats)
+    print(f"{'noise draw (1000 uniforms)':<48} {median:9,.0f} draws/s")
+
+
 def cmd_bench_env(args: argparse.Namespace) -> int:
     import gymnasium as gym
 
     import pico_gym  # noqa: F401
-    from pico_gym.sensors.lrf import Lrf, LrfConfig
-    from pico_gym.types import Pose
 
+    if args.lrf:
+        print(f"machine : {_machine()}\nversions: {_versions()}\n")
+        bench_lrf(args.repeats, args.seed)
+        return 0
     if args.env == "PicoHospital-v0":
         return bench_hospital(args)
     print(f"machine : {_machine()}")
@@ -245,21 +333,8 @@ def cmd_bench_env(args: argparse.Namespace) -> int:
     median, _ = _median_rate(resets, args.repeats)
     print(f"{'PicoEscape-v0 reset (new room, geodesic field, space)':<60} {median:9,.0f} resets/s")
 
-    lrf = Lrf(LrfConfig())
-    pose = Pose(0.1, 0.05, 0.3)
     print()
-    for n in (20, 100, 400):
-        scene = clutter_scene(n, args.seed)
-        lrf.exact(pose, scene)
-
-        def scans(scene: np.ndarray = scene) -> int:
-            for _ in range(2000):
-                lrf.exact(pose, scene)
-            return 2000
-
-        median, _ = _median_rate(scans, args.repeats)
-        print(f"LRF, 1000 beams, {n:>3} segments (10 x 10 m room with boxes) {median:12,.0f} scans/s")
-
+    bench_lrf(args.repeats, args.seed)
     print()
     for mode in ("sync", "async"):
         venv = gym.make_vec("PicoEscape-v0", num_envs=2, vectorization_mode=mode)
@@ -387,6 +462,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--steps", type=int, default=20000, help="env steps per run")
     p.add_argument("--repeats", type=int, default=5, help="runs per figure (the median is printed)")
     p.add_argument("--seed", type=int, default=0, help="seed of the envs and the random actions")
+    p.add_argument("--lrf", action="store_true", help="only the LRF rows (pico-gym against f1tenth-style ray marching)")
     p.set_defaults(func=cmd_bench_env)
 
     p = sub.add_parser("bench-walls", help="adversarial driving: count overlaps of the true footprint with walls")

@@ -108,6 +108,21 @@ def test_training_seeds_are_disjoint_from_evaluation_seeds():
     assert all(s >= TRAIN_SEED_MIN for s in seeds) and len(set(seeds)) == 5
 
 
+def test_train_env_variants_randomise_the_envs_of_the_vector_env(tmp_path):
+    from pico_gym.train.ppo import make_vec_env
+
+    path = tmp_path / "variants.yaml"
+    path.write_text(TINY + "  train_env_variants: [{}, {n_obstacles: 2, noise_m: 0.02}]\n")
+    vec = make_vec_env(load_config(path), seed=0)
+    configs = [env.unwrapped.config for env in vec.envs]
+    assert [c.task.room.n_obstacles for c in configs] == [0, 2]
+    assert [c.lrf.noise_m for c in configs] == [0.01, 0.02]
+    assert all(c.lrf.n_beams == 200 for c in configs)  # env_kwargs still apply to every env
+    vec.close()
+    robust = load_config(Path(DEFAULT_CONFIG).with_name("ppo_escape_robust.yaml"))
+    assert len(robust.pico["train_env_variants"]) == robust.zoo["n_envs"]
+
+
 def test_shipped_config_loads_in_rl_zoo_layout():
     config = load_config(DEFAULT_CONFIG)
     assert config.env_id == "PicoEscape-v0"
@@ -125,6 +140,7 @@ def test_shipped_config_loads_in_rl_zoo_layout():
         ("PicoEscape-v0: {n_envs: 1, n_timesteps: 1, policy: MlpPolicy}\n", "env_wrapper is missing"),
         (TINY + "  surprise: 1\n", "unknown key"),
         ("PicoEscape-v0: [\n", "not valid YAML"),
+        (TINY + "  train_env_variants: {n_obstacles: 2}\n", "train_env_variants must be a list"),
     ],
 )
 def test_bad_configs_name_file_and_key(tmp_path, text, match):

@@ -51,6 +51,7 @@ PICO_KEY = "pico-gym"
 PICO_DEFAULTS: dict[str, Any] = {
     "env_kwargs": {},
     "train_env_kwargs": {},
+    "train_env_variants": [],
     "vec_env": "dummy",
     "torch_threads": 1,
     "checkpoint_freq": 250_000,
@@ -121,6 +122,9 @@ def load_config(path: str | Path, env_id: str = "PicoEscape-v0") -> TrainConfig:
     pico.update(data.get(PICO_KEY) or {})
     if pico["vec_env"] not in ("dummy", "subproc"):
         raise ConfigError(f"{path}: {PICO_KEY}.vec_env must be 'dummy' or 'subproc', got {pico['vec_env']!r}")
+    variants = pico["train_env_variants"]
+    if not isinstance(variants, list) or not all(isinstance(v, dict) for v in variants):
+        raise ConfigError(f"{path}: {PICO_KEY}.train_env_variants must be a list of env kwargs dicts, got {variants!r}")
     config = TrainConfig(env_id, zoo, pico, str(path))
     config.learning  # noqa: B018  (validates the wrapper entry now, not after minutes of setup)
     return config
@@ -191,11 +195,22 @@ def _apply_wrappers(env: gym.Env, entries: list[Any]) -> gym.Env:
     return env
 
 
-def make_env(config: TrainConfig, rng: np.random.Generator) -> gym.Env:
+def train_env_kwargs(config: TrainConfig, index: int = 0) -> dict[str, Any]:
+    """The kwargs of training env `index`: env_kwargs, then train_env_kwargs, then its variant.
+
+    `train_env_variants` (a list of kwargs dicts) is domain randomisation across the vector env:
+    env i takes variant i % len(variants), e.g. half the envs with boxes, some with harsher sensors.
+    """
+    variants = config.pico["train_env_variants"]
+    variant = variants[index % len(variants)] if variants else {}
+    return {**config.pico["env_kwargs"], **config.pico["train_env_kwargs"], **variant}
+
+
+def make_env(config: TrainConfig, rng: np.random.Generator, index: int = 0) -> gym.Env:
     """One training env: the env, per-episode training seeds, the config's wrappers, a Monitor."""
     from stable_baselines3.common.monitor import Monitor
 
-    env = gym.make(config.env_id, **{**config.pico["env_kwargs"], **config.pico["train_env_kwargs"]})
+    env = gym.make(config.env_id, **train_env_kwargs(config, index))
     env = EpisodeSeeds(env, rng)
     return Monitor(_apply_wrappers(env, config.zoo["env_wrapper"]))
 
@@ -205,7 +220,7 @@ def make_vec_env(config: TrainConfig, seed: int, stream: int = 0) -> Any:
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
     n = int(config.zoo["n_envs"])
-    factories = [(lambda i=i: make_env(config, np.random.default_rng([seed, i, stream]))) for i in range(n)]
+    factories = [(lambda i=i: make_env(config, np.random.default_rng([seed, i, stream]), i)) for i in range(n)]
     return SubprocVecEnv(factories) if config.pico["vec_env"] == "subproc" else DummyVecEnv(factories)
 
 

@@ -175,7 +175,7 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
                 raise ValueError(f"options['start_pose'] {tuple(start)} puts the robot in a wall")
             if not math.isfinite(ep.shortest_path_length_m):
                 raise ValueError(f"options['start_pose'] {tuple(start)} has no path to {self.task.goal_name}")
-        self._seen = scene.static_seen
+        self._seen = scene.lrf_static
         self._one_sided = scene.static_one_sided
         self._solid = scene.static_solid
         self._movers = scene.mover_segments if scene.has_movers else None

@@ -1,11 +1,16 @@
 """PICO's laser range finder: exact ray casting against wall segments, plus sensor noise.
 
 The core is `lrf_ranges`, a pure function (pose, segments, beam angles) -> ranges. It is exact
-ray/segment intersection, not a raster. Its broad phase is angular: each segment in range covers an
-interval of bearings as seen from the sensor, and only the beams inside that interval are tested
-against it (found by binary search in the sorted beam angles). A beam is then tested against the
-few segments in front of it rather than against every segment of the map, so the cost grows with
-what the sensor sees, not with the size of the map.
+ray/segment intersection, not a raster, with one of two broad phases, picked by the number of
+segments (both give the same ranges, to rounding):
+
+- angular (small scenes, below `GRID_MIN_SEGMENTS`): each segment in range covers an interval of
+  bearings as seen from the sensor, and only the beams inside it are tested against it (found by
+  binary search in the sorted beam angles). Its cost grows with the segments in range.
+- a uniform grid (`pico_gym.world.segment_grid.SegmentGrid`, large maps): each beam walks the
+  cells it passes and stops at the first hit, so its cost follows what a beam passes, not the size
+  of the map. The env builds it once per episode (`Scene.lrf_static`); `lrf_ranges` keeps the
+  last few it built.
 
 Defaults are PICO's (../shared/pico-facts.md): 1000 beams over -2..+2 rad, 0.01-10 m, additive
 uniform noise of +-0.01 m, mounted at the robot origin.
@@ -15,7 +20,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Literal
+from typing import Any, Literal
 
 import gymnasium as gym
 import numpy as np
@@ -23,6 +28,7 @@ import numpy as np
 from pico_gym.jit import njit
 from pico_gym.types import FloatArray, Pose, Segments
 from pico_gym.validate import number
+from pico_gym.world.segment_grid import GRID_MIN_SEGMENTS, SegmentGrid
 
 # PICO's laser (emc_simulator, PICO era): 1000 beams, -2..2 rad, 0.01..10 m, U(-0.01, 0.01) noise.
 PICO_N_BEAMS = 1000
@@ -189,9 +195,74 @@ def _noisy(
 _NO_FLAGS = np.zeros(0, dtype=np.bool_)
 
 
+@njit
+def _equal(a: np.ndarray, b: np.ndarray) -> bool:
+    """Same length and elements (1-D): a few times faster than np.array_equal on small arrays."""
+    if a.shape[0] != b.shape[0]:
+        return False
+    same = True
+    for i in range(a.shape[0]):  # no early exit: the loop vectorises
+        same &= a[i] == b[i]
+    return same
+
+
+@njit
+def _no_hit_to_inf(out: FloatArray, max_range: float) -> None:
+    for i in range(out.shape[0]):
+        if out[i] > max_range:
+            out[i] = math.inf
+
+
+class _Recent:
+    """The last few values computed from arrays, found again by content (never by identity: a
+    caller may change an array in place between calls)."""
+
+    def __init__(self, size: int) -> None:
+        self.size = size
+        self.entries: list[tuple[tuple[np.ndarray, ...], Any]] = []
+
+    def get(self, keys: tuple[np.ndarray, ...], make: Any) -> Any:
+        entries = self.entries
+        if entries:  # the common case, a loop over poses of one scene: the newest entry, unrolled
+            stored, value = entries[0]
+            if len(keys) == 1:
+                if stored[0].shape == keys[0].shape and _equal(stored[0].reshape(-1), keys[0].reshape(-1)):
+                    return value
+            elif (
+                stored[0].shape == keys[0].shape
+                and stored[1].shape == keys[1].shape
+                and _equal(stored[0].reshape(-1), keys[0].reshape(-1))
+                and _equal(stored[1].reshape(-1), keys[1].reshape(-1))
+            ):
+                return value
+        for k, (stored, value) in enumerate(entries[1:], 1):
+            if all(
+                a.shape == b.shape and _equal(a.reshape(-1), b.reshape(-1)) for a, b in zip(stored, keys, strict=True)
+            ):
+                entries.insert(0, entries.pop(k))
+                return value
+        value = make()
+        entries.insert(0, (tuple(a.copy() for a in keys), value))
+        del entries[self.size :]
+        return value
+
+
+_BEAMS = _Recent(4)  # beam angles -> (cos, sin), checked ascending once
+_GRIDS = _Recent(4)  # (segments, one-sided flags) -> SegmentGrid
+
+
+def _beams(beam_angles: FloatArray) -> tuple[FloatArray, FloatArray]:
+    def make() -> tuple[FloatArray, FloatArray]:
+        if np.any(np.diff(beam_angles) < 0.0):
+            raise ValueError("beam_angles must be sorted in ascending order")
+        return np.cos(beam_angles), np.sin(beam_angles)
+
+    return _BEAMS.get((beam_angles,), make)
+
+
 def lrf_ranges(
     pose: Pose,
-    segments: Segments,
+    segments: Segments | SegmentGrid,
     beam_angles: FloatArray,
     max_range: float = PICO_RANGE_MAX_M,
     one_sided: np.ndarray | None = None,
@@ -200,11 +271,12 @@ def lrf_ranges(
 
     Args:
         pose: sensor pose (x, y, theta) in the frame of the segments.
-        segments: (N, 4) wall segments (x1, y1, x2, y2).
+        segments: (N, 4) wall segments (x1, y1, x2, y2), or a prebuilt `SegmentGrid` of them.
         beam_angles: ascending beam bearings in the sensor frame, radians.
         max_range: hits farther than this are ignored.
         one_sided: optional flag per segment: a segment of a closed outline directed with the
-            free side on its left, which the cast may skip when the sensor is on its other side.
+            free side on its left, which the cast may skip when the sensor is on its other side
+            (a `SegmentGrid` holds its own flags).
 
     Returns:
         A float64 array, one range per beam, `inf` where the beam hits nothing within max_range.
@@ -212,28 +284,29 @@ def lrf_ranges(
     Raises:
         ValueError: when the beam angles are not in ascending order.
 
+    The beams' directions and, for `GRID_MIN_SEGMENTS` segments or more, the grid are kept for the
+    next calls with equal arrays, so a loop over poses costs what the env's own scans cost.
+
     >>> square = np.array([[-1, -1, 1, -1], [1, -1, 1, 1], [1, 1, -1, 1], [-1, 1, -1, -1]], float)
     >>> lrf_ranges(Pose(0.0, 0.0, 0.0), square, np.array([0.0, math.pi / 4])).round(6).tolist()
     [1.0, 1.414214]
     """
-    beam_angles = np.ascontiguousarray(beam_angles, dtype=np.float64).reshape(-1)
-    if np.any(np.diff(beam_angles) < 0.0):
-        raise ValueError("beam_angles must be sorted in ascending order")
+    if not (isinstance(beam_angles, np.ndarray) and beam_angles.dtype == np.float64 and beam_angles.ndim == 1):
+        beam_angles = np.ascontiguousarray(beam_angles, dtype=np.float64).reshape(-1)
+    cos, sin = _beams(beam_angles)
     out = np.empty(beam_angles.shape[0])
-    _cast(
-        float(pose[0]),
-        float(pose[1]),
-        float(pose[2]),
-        np.ascontiguousarray(segments, dtype=np.float64).reshape(-1, 4),
-        beam_angles,
-        np.cos(beam_angles),
-        np.sin(beam_angles),
-        float(max_range),
-        out,
-        True,
-        _NO_FLAGS if one_sided is None else np.ascontiguousarray(one_sided, dtype=np.bool_),
-    )
-    out[out > max_range] = math.inf
+    x, y, th = float(pose[0]), float(pose[1]), float(pose[2])
+    if not isinstance(segments, SegmentGrid):
+        if not (isinstance(segments, np.ndarray) and segments.dtype == np.float64 and segments.flags.c_contiguous):
+            segments = np.ascontiguousarray(segments, dtype=np.float64)
+        segments = segments.reshape(-1, 4)
+        flags = _NO_FLAGS if one_sided is None else np.ascontiguousarray(one_sided, dtype=np.bool_)
+        if len(segments) < GRID_MIN_SEGMENTS:
+            _cast(x, y, th, segments, beam_angles, cos, sin, float(max_range), out, True, flags)
+            _no_hit_to_inf(out, float(max_range))
+            return out
+        segments = _GRIDS.get((segments, flags), lambda: SegmentGrid(segments, flags))
+    segments.cast(x, y, th, cos, sin, float(max_range), out)
     return out
 
 
@@ -256,22 +329,29 @@ class Lrf:
         return gym.spaces.Box(0.0, self.config.range_max_m, shape=(self.config.n_beams,), dtype=np.float32)
 
     def exact(
-        self, pose: Pose, segments: Segments, dynamic: Segments | None = None, one_sided: np.ndarray | None = None
+        self,
+        pose: Pose,
+        segments: Segments | SegmentGrid,
+        dynamic: Segments | None = None,
+        one_sided: np.ndarray | None = None,
     ) -> FloatArray:
-        """Noiseless ranges (inf for no hit). The returned array is reused by the next call.
+        """Noiseless ranges (above range_max_m for no hit). The returned array is reused by the next call.
 
         Args:
             pose: sensor pose.
-            segments: the static segments the laser sees.
+            segments: the static segments the laser sees, as an array (the angular cast) or a
+                `SegmentGrid` (the grid cast; `Scene.lrf_static` picks by size).
             dynamic: more segments (the movers' boxes, rewritten every step), cast into the same
                 ranges without joining the two arrays.
-            one_sided: flags of `segments` (see `lrf_ranges`).
+            one_sided: flags of `segments` (see `lrf_ranges`; a `SegmentGrid` holds its own).
         """
         cfg = self.config
         x, y, th = pose[0], pose[1], pose[2]
-        flags = _NO_FLAGS if one_sided is None else one_sided
         beams, cos, sin, rmax, out = self.beam_angles, self._cos, self._sin, cfg.range_max_m, self._ranges
-        _cast(x, y, th, segments, beams, cos, sin, rmax, out, True, flags)
+        if isinstance(segments, SegmentGrid):
+            segments.cast(x, y, th, cos, sin, rmax, out)
+        else:
+            _cast(x, y, th, segments, beams, cos, sin, rmax, out, True, _NO_FLAGS if one_sided is None else one_sided)
         if dynamic is not None and len(dynamic):
             _cast(x, y, th, dynamic, beams, cos, sin, rmax, out, False, _NO_FLAGS)
         return self._ranges
@@ -279,7 +359,7 @@ class Lrf:
     def scan(
         self,
         pose: Pose,
-        segments: Segments,
+        segments: Segments | SegmentGrid,
         rng: np.random.Generator,
         dynamic: Segments | None = None,
         one_sided: np.ndarray | None = None,

@@ -21,6 +21,7 @@ from pico_gym.types import FloatArray, Pose, Segments
 from pico_gym.world import geometry
 from pico_gym.world.map import Map
 from pico_gym.world.movers import MoverRecord, Movers, box_corners, mover_record
+from pico_gym.world.segment_grid import GRID_MIN_SEGMENTS, SegmentGrid
 
 __all__ = ["KINDS", "MoverRecord", "Movers", "Scene", "SceneSnapshot", "box_corners", "mover_record"]
 
@@ -72,6 +73,10 @@ class Scene:
         one_sided[: len(world.structure_segments)] = world.structure_one_sided
         # The LRF's back-face culling flags (None when no segment has one: the plain cast).
         self.static_one_sided = one_sided if one_sided.any() else None
+        # What the LRF casts against: the segments themselves on small maps, their grid on large ones.
+        self.lrf_static: Segments | SegmentGrid = (
+            SegmentGrid(self.static_seen, self.static_one_sided) if n_seen >= GRID_MIN_SEGMENTS else self.static_seen
+        )
         self.mover_segments = np.zeros((4 * len(self.movers), 4))
         self.update_movers()
 
