@@ -23,7 +23,6 @@ PPO agent uses it to act on an env's raw observations exactly as in training.
 from __future__ import annotations
 
 import math
-from collections import deque
 from dataclasses import asdict, dataclass
 from typing import Any, Literal
 
@@ -176,9 +175,16 @@ def _update_memory(memory, ranges, beam_angles, centres, heading, range_max, log
     inv_width = n / (2.0 * math.pi)
     heading = heading % (2.0 * math.pi)  # [0, 2 pi); beam and centre angles are within [-pi, pi]
     current = np.full(n, -1.0)
+    # The beams are sorted, so their raw bin int((angle + 4 pi) * inv_width) never decreases: wrap
+    # it by an offset that grows by n when it passes n (what `_bin` computes, without its loop).
+    offset = _bin(heading + beam_angles[0], inv_width, n)
+    offset = int((heading + beam_angles[0] + 4.0 * math.pi) * inv_width) - offset
     for i in range(ranges.shape[0]):
         r = ranges[i] if ranges[i] > 0.0 else range_max
-        b = _bin(heading + beam_angles[i], inv_width, n)
+        b = int((heading + beam_angles[i] + 4.0 * math.pi) * inv_width) - offset
+        if b >= n:
+            offset += n
+            b -= n
         if r > current[b]:
             current[b] = r
     for b in range(n):
@@ -192,6 +198,25 @@ def _update_memory(memory, ranges, beam_angles, centres, heading, range_max, log
         v = math.log(max(r, r0) / r0) / log_span if log_scale else r / range_max  # as scale_ranges
         out[j] = min(max(v, 0.0), 1.0)
     return out
+
+
+@njit
+def _pool_into(ranges, starts, range_max, reduce_max, log_scale, out):  # type: ignore[no-untyped-def]
+    """`min_pool(...)` (or its maximum) of a float32 scan, scaled as `scale_ranges`, into `out`."""
+    n = starts.shape[0]
+    no_hit = np.float32(range_max)
+    r0 = LOG_RANGE_MIN_M
+    log_span = math.log(range_max / r0)
+    for k in range(n):
+        end = starts[k + 1] if k + 1 < n else ranges.shape[0]
+        m = ranges[starts[k]] if ranges[starts[k]] > 0.0 else no_hit
+        for i in range(starts[k] + 1, end):
+            r = ranges[i] if ranges[i] > 0.0 else no_hit
+            if (r > m) if reduce_max else (r < m):
+                m = r
+        v = float(m)
+        v = math.log(max(v, r0) / r0) / log_span if log_scale else v / range_max
+        out[k] = min(max(v, 0.0), 1.0)
 
 
 class RangeMemory:
@@ -219,7 +244,8 @@ class RangeMemory:
 
     def update(self, ranges: np.ndarray, heading: float) -> np.ndarray:
         """Store a scan taken at odometry heading `heading`; the memory in the body frame, in [0, 1]."""
-        ranges = np.asarray(ranges, np.float64)
+        if ranges.dtype not in (np.float32, np.float64):
+            ranges = np.asarray(ranges, np.float64)
         return _update_memory(
             self.memory, ranges, self.beam_angles, self.centres, heading, self.range_max, self.scale == "log"
         )
@@ -340,36 +366,60 @@ class LearningEncoder:
             low[-3:], high[-3:] = -1.5, 1.5
         k = config.frame_stack
         self.space = gym.spaces.Box(np.tile(low, k), np.tile(high, k), dtype=np.float32)
-        self._frames: deque[np.ndarray] = deque(maxlen=k)
+        # The stacked input, oldest frame first: a step shifts it one frame and writes the newest.
+        self._stack = np.zeros(k * self.frame_size, np.float32)
+        self._log = config.range_scale == "log"
+        self._velocity_scale = (dt_s * robot.max_speed_mps, dt_s * robot.max_turn_rate_radps)
         self._previous: np.ndarray | None = None
 
-    def _frame(self, obs: dict[str, np.ndarray], velocity: np.ndarray) -> np.ndarray:
-        scale = self.config.range_scale
-        parts = [min_pool(obs["lrf"], self.starts, self.range_max, scale=scale)]
+    def _write_frame(self, obs: dict[str, np.ndarray], velocity: tuple[float, float, float]) -> None:
+        frame = self._stack[len(self._stack) - self.frame_size :]
+        lrf = obs["lrf"]
+        if lrf.dtype != np.float32:
+            lrf = lrf.astype(np.float32)
+        n = self.config.n_sectors
+        _pool_into(lrf, self.starts, self.range_max, False, self._log, frame[:n])
         if self.config.max_pool:
-            parts.append(min_pool(obs["lrf"], self.starts, self.range_max, reduce=np.maximum, scale=scale))
+            _pool_into(lrf, self.starts, self.range_max, True, self._log, frame[n : 2 * n])
+            n *= 2
         if self.memory is not None:
-            parts.append(self.memory.update(obs["lrf"], float(obs["odom"][2])))
+            frame[n : n + self.config.memory_sectors] = self.memory.update(lrf, float(obs["odom"][2]))
         if self.config.odometry == "velocity":
-            parts.append(velocity)
-        return np.concatenate(parts)
+            frame[-3:] = velocity
+
+    def _velocity(self, odom: np.ndarray) -> tuple[float, float, float]:
+        """`body_velocity(previous, odom, ...)` without building arrays (the same arithmetic)."""
+        dx, dy, dth = (odom - self._previous).tolist()  # in the odometry's own dtype, as body_velocity
+        heading = float(self._previous[2])  # type: ignore[index]
+        c, s = math.cos(heading), math.sin(heading)
+        dtheta = math.remainder(dth, 2.0 * math.pi)
+        lin, ang = self._velocity_scale
+        return (
+            min(max((c * dx + s * dy) / lin, -1.5), 1.5),
+            min(max((-s * dx + c * dy) / lin, -1.5), 1.5),
+            min(max(dtheta / ang, -1.5), 1.5),
+        )
 
     def reset(self, obs: dict[str, np.ndarray]) -> np.ndarray:
-        self._previous = np.asarray(obs["odom"])
+        self._previous = np.array(obs["odom"])
         if self.memory is not None:
             self.memory.reset()
-        frame = self._frame(obs, np.zeros(3, np.float32))
-        self._frames.clear()
-        self._frames.extend([frame] * self.config.frame_stack)
-        return np.concatenate(self._frames)
+        self._write_frame(obs, (0.0, 0.0, 0.0))
+        fs = self.frame_size
+        newest = self._stack[len(self._stack) - fs :]
+        for k in range(self.config.frame_stack - 1):
+            self._stack[k * fs : (k + 1) * fs] = newest
+        return self._stack.copy()
 
     def encode(self, obs: dict[str, np.ndarray]) -> np.ndarray:
         if self._previous is None:
             raise RuntimeError("LearningEncoder.encode called before reset")
-        odom = np.asarray(obs["odom"])
-        self._frames.append(self._frame(obs, body_velocity(self._previous, odom, self.dt, self.robot)))
+        odom = np.array(obs["odom"])
+        fs = self.frame_size
+        self._stack[: len(self._stack) - fs] = self._stack[fs:]
+        self._write_frame(obs, self._velocity(odom))
         self._previous = odom
-        return np.concatenate(self._frames)
+        return self._stack.copy()
 
 
 class PicoLearningWrapper(gym.Wrapper):
