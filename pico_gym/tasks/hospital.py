@@ -581,25 +581,34 @@ def _costs(grid: Grid, base_clearance: FloatArray, extra: Segments) -> CostGrid:
 
 
 class _Keepout:
-    """Polygons to keep away from, each with its bounding box as plain floats (computed once, as
-    the rejection samplers test many candidates against the same polygons)."""
+    """Polygons to keep away from, each with its bounding box as plain floats and its edges
+    (computed once, as the rejection samplers test many candidates against the same polygons)."""
 
     def __init__(self, polygons: list[FloatArray] = ()) -> None:  # type: ignore[assignment]
         self.polygons: list[FloatArray] = []
         self.boxes: list[tuple[float, float, float, float]] = []
+        self.edges: list[Segments | None] = []  # each polygon's segments, made on first need
         for q in polygons:
             self.add(q)
 
     def add(self, q: FloatArray) -> None:
         self.polygons.append(q)
         self.boxes.append(_bbox(q))
+        self.edges.append(None)
 
     def near(self, p: FloatArray, margin: float, extra: list[FloatArray] = ()) -> bool:  # type: ignore[assignment]
         """Whether polygon `p` comes within `margin` of any kept-out polygon (or of `extra`)."""
         plx, ply, phx, phy = _bbox(p)
-        for q, (qlx, qly, qhx, qhy) in zip(
-            self.polygons + list(extra), self.boxes + [_bbox(q) for q in extra], strict=True
-        ):
+        for k, (qlx, qly, qhx, qhy) in enumerate(self.boxes):
+            gap = math.hypot(max(0.0, qlx - phx, plx - qhx), max(0.0, qly - phy, ply - qhy))
+            if gap < margin:
+                edges = self.edges[k]
+                if edges is None:
+                    edges = self.edges[k] = geometry.polygon_to_segments(self.polygons[k])
+                if _polygon_distance(p, self.polygons[k], edges) < margin:
+                    return True
+        for q in extra:
+            qlx, qly, qhx, qhy = _bbox(q)
             gap = math.hypot(max(0.0, qlx - phx, plx - qhx), max(0.0, qly - phy, ply - qhy))
             if gap < margin and _polygon_distance(p, q) < margin:
                 return True
@@ -611,11 +620,11 @@ def _bbox(q: FloatArray) -> tuple[float, float, float, float]:
     return min(xs), min(ys), max(xs), max(ys)
 
 
-def _polygon_distance(p: FloatArray, q: FloatArray) -> float:
-    """Distance between two polygons (0 if they overlap)."""
+def _polygon_distance(p: FloatArray, q: FloatArray, q_edges: Segments | None = None) -> float:
+    """Distance between two polygons (0 if they overlap); `q_edges`: q's segments, if known."""
     if geometry.point_in_polygon(p[0, 0], p[0, 1], q) or geometry.point_in_polygon(q[0, 0], q[0, 1], p):
         return 0.0
-    return float(geometry.polygon_clearance(p, geometry.polygon_to_segments(q)))
+    return float(geometry.polygon_clearance(p, geometry.polygon_to_segments(q) if q_edges is None else q_edges))
 
 
 def _mover_lane(m: MoverRecord) -> FloatArray:

@@ -58,7 +58,11 @@ def transform_points(pose: Pose, points: FloatArray) -> FloatArray:
 def polygon_to_segments(polygon: FloatArray) -> Segments:
     """Return the edges of a closed polygon as segments."""
     polygon = np.asarray(polygon, dtype=np.float64)
-    return np.hstack([polygon, np.roll(polygon, -1, axis=0)])
+    out = np.empty((len(polygon), 4))
+    out[:, :2] = polygon
+    out[:-1, 2:] = polygon[1:]
+    out[-1:, 2:] = polygon[:1]
+    return out
 
 
 @njit
