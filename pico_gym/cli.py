@@ -19,6 +19,7 @@ import time
 from collections.abc import Callable, Sequence
 from importlib.metadata import entry_points
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from gymnasium.error import DependencyNotInstalled
@@ -88,10 +89,12 @@ def _median_rate(fn: Callable[[], int], repeats: int) -> tuple[float, list[float
     return statistics.median(rates), rates
 
 
-def _env_rate(steps: int, seed: int, env_id: str = "PicoEscape-v0", **kwargs: object) -> Callable[[], int]:
+def _env_rate(
+    steps: int, seed: int, env_id: str = "PicoEscape-v0", env: Any = None, **kwargs: object
+) -> Callable[[], int]:
     import gymnasium as gym
 
-    env = gym.make(env_id, **kwargs)
+    env = gym.make(env_id, **kwargs) if env is None else env
     env.reset(seed=seed)
     env.action_space.seed(seed)
     actions = [env.action_space.sample() for _ in range(steps)]
@@ -321,6 +324,19 @@ def cmd_bench_env(args: argparse.Namespace) -> int:
             f"{label:<60} {median:9,.0f} steps/s   (runs: {', '.join(f'{r:,.0f}' for r in rates)}; "
             f"{run.resets} episode ends per {args.steps:,} steps)"
         )
+
+    # The toy ceiling (a pymunk body + an exact numba scan of all 20 segments per step, nothing
+    # else), interleaved with PicoEscape-v0 through gym.make and unwrapped: the same load for all.
+    from pico_gym.envs.toy import ToyCeilingEnv
+
+    toy = _env_rate(args.steps, args.seed, env=ToyCeilingEnv())
+    made = _env_rate(args.steps, args.seed)
+    bare = _env_rate(args.steps, args.seed, env=gym.make("PicoEscape-v0").unwrapped)
+    rates = _interleaved([toy, made, bare], args.repeats)
+    for label, r in zip(("toy ceiling (pymunk body + exact scan, 20 segments)", "PicoEscape-v0 through gym.make",
+                         "PicoEscape-v0 unwrapped"), rates, strict=True):  # fmt: skip
+        ratio = statistics.median(x / t for x, t in zip(r, rates[0], strict=True))
+        print(f"{label:<60} {statistics.median(r):9,.0f} steps/s   {ratio:5.2f}x the toy (median of per-round ratios)")
 
     env = gym.make("PicoEscape-v0")
     env.reset(seed=args.seed)
