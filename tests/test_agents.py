@@ -149,3 +149,28 @@ def test_run_prints_the_outcome_and_writes_a_gif(tmp_path: Path, capsys: pytest.
     assert main(["run", "--agent", "classic", "--map", "escape_small", "--gif", str(gif)]) == 0
     out = capsys.readouterr().out
     assert "outcome: escaped" in out and "shortest path" in out and gif.is_file()
+
+
+def test_classic_thresholds_are_times_not_steps() -> None:
+    from pico_gym.agents.classic.agent import ClassicAgent, EscapeState
+
+    coarse = make_agent("classic", gym.make("PicoEscape-v0"))
+    fine = make_agent("classic", gym.make("PicoEscape-v0", dt_s=0.05))
+    assert isinstance(coarse, ClassicAgent) and coarse.state is EscapeState.START
+    ratio = coarse.spec.dt_s / fine.spec.dt_s
+    for name in ("_replan", "_memory", "_start_look", "_start_timeout", "_explore_timeout", "_backoff"):
+        assert getattr(fine, name) == round(ratio * getattr(coarse, name)), name  # the same seconds
+
+
+def test_perception_is_one_value_both_agents_read() -> None:
+    from pico_gym.agents.classic.perception import perceive
+
+    env = gym.make("PicoEscape-v0", map="escape_2019")
+    obs, _ = env.reset(seed=0)
+    spec = RobotSpec.of(env)
+    percept = perceive(obs["lrf"], spec.beam_angles, spec.lrf)
+    scan = preprocess(np.asarray(obs["lrf"], float), spec.beam_angles, spec.lrf.range_min_m, spec.lrf.range_max_m)
+    assert np.array_equal(percept.scan.points, scan.points)
+    assert np.array_equal(percept.lines.segments, split_and_merge(scan).segments)
+    directions = percept.long_line_directions()
+    assert np.allclose(np.hypot(directions[:, 0], directions[:, 1]), 1.0)

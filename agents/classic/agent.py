@@ -21,13 +21,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from enum import Enum
 from typing import Any
 
 import numpy as np
 
 from pico_gym.agents.base import Agent, RobotSpec
 from pico_gym.agents.classic.astar import astar, string_pull
-from pico_gym.agents.classic.features import Features, extract_features
+from pico_gym.agents.classic.features import Features
+from pico_gym.agents.classic.perception import perceive
 from pico_gym.agents.classic.potential_field import (
     MotionConfig,
     attract_and_repel,
@@ -37,7 +39,7 @@ from pico_gym.agents.classic.potential_field import (
     motion_for,
     safety_filter,
 )
-from pico_gym.agents.classic.split_merge import Lines, Scan, preprocess, split_and_merge
+from pico_gym.agents.classic.split_merge import Lines, Scan
 from pico_gym.agents.classic.world_model import CELL_M, ExitTrack, WorldModel
 from pico_gym.overlay import Overlay
 from pico_gym.types import FloatArray, Pose
@@ -47,6 +49,17 @@ from pico_gym.world.geometry import wrap_angle
 APPROACH_BEARING = 1.5
 
 
+class EscapeState(Enum):
+    """The escape strategy's states (see the module docstring)."""
+
+    START = "start"
+    LOOK = "look"
+    APPROACH = "approach"
+    CORRIDOR = "corridor"
+    EXPLORE = "explore"
+    BACKOFF = "backoff"
+
+
 @dataclass(frozen=True)
 class ClassicConfig:
     """Parameters of the classic agent (SI units).
@@ -54,26 +67,39 @@ class ClassicConfig:
     Attributes:
         front_distance: the approach set-point lies this far in front of the mouth [m].
         inflate: obstacles are grown by this for planning [m] (the robot's half width + margin).
-        replan_steps: re-plan the A* path every this many steps.
+        replan_s: re-plan the A* path this often [s].
         lookahead: the path point this far ahead is the potential field's set-point [m].
         look_turn: how far LOOK turns before giving up on this spot [rad].
         stuck_time: no progress for this long means stuck [s].
-        memory_steps: hits older than this many steps are forgotten for safety and planning.
+        memory_s: hits older than this are forgotten for safety and planning [s].
         rotate_clearance: turn in place only when nothing known is closer to the origin [m].
         max_still_time: standing still this long triggers BACKOFF [s].
         align_scans: correct odometry by aligning each scan to the hits seen before.
+        start_look_s: START turns to LOOK after this long, once turning is safe [s].
+        start_timeout_s: START gives up stepping away and backs off after this long [s].
+        explore_timeout_s: EXPLORE looks again after this long [s].
+        backoff_s: BACKOFF moves away for this long [s].
+        corridor_grace_s: in CORRIDOR, no-progress counts only after this long [s].
+
+    Times are converted to whole control periods once (`round(t / dt)`), so a threshold means
+    the same at any `dt_s`.
     """
 
     front_distance: float = 0.55
     inflate: float = 0.27
-    replan_steps: int = 10
+    replan_s: float = 1.0
     lookahead: float = 0.5
     look_turn: float = 2.9
     stuck_time: float = 6.0
-    memory_steps: int = 150
+    memory_s: float = 15.0
     rotate_clearance: float = 0.27
     max_still_time: float = 3.0
     align_scans: bool = True
+    start_look_s: float = 0.3
+    start_timeout_s: float = 3.0
+    explore_timeout_s: float = 8.0
+    backoff_s: float = 1.2
+    corridor_grace_s: float = 10.0
 
 
 class ClassicAgent(Agent):
@@ -88,12 +114,30 @@ class ClassicAgent(Agent):
         self.config = config or ClassicConfig()
         self.motion = motion or motion_for(spec)
         self.angles = spec.beam_angles
+        cfg = self.config
+        steps = self._steps
+        self._replan, self._memory = max(steps(cfg.replan_s), 1), steps(cfg.memory_s)
+        self._start_look, self._start_timeout = steps(cfg.start_look_s), steps(cfg.start_timeout_s)
+        self._explore_timeout, self._backoff = steps(cfg.explore_timeout_s), steps(cfg.backoff_s)
+        self._corridor_grace = steps(cfg.corridor_grace_s)
+        self._handlers = {
+            EscapeState.START: self._start,
+            EscapeState.LOOK: self._look,
+            EscapeState.APPROACH: self._approach,
+            EscapeState.CORRIDOR: self._corridor,
+            EscapeState.EXPLORE: self._explore,
+            EscapeState.BACKOFF: self._backoff,
+        }
         self.reset({"lrf": np.zeros(spec.lrf.n_beams), "odom": np.zeros(3)})
+
+    def _steps(self, seconds: float) -> int:
+        """A duration in whole control periods."""
+        return int(round(seconds / self.spec.dt_s))
 
     # --- episode ---------------------------------------------------------------------------
     def reset(self, obs: dict[str, np.ndarray], info: dict[str, Any] | None = None) -> None:
         self.model = WorldModel()
-        self.state = "START"
+        self.state = EscapeState.START
         self.state_steps = 0
         self.still_steps = 0
         self.turned = 0.0
@@ -111,7 +155,7 @@ class ClassicAgent(Agent):
         self.corridor_width = 0.5  # last measured width [m]
         self.corridor_step = 0
 
-    def _go(self, state: str) -> None:
+    def _go(self, state: EscapeState) -> None:
         self.state = state
         self.state_steps = 0
         self.turned = 0.0
@@ -122,18 +166,12 @@ class ClassicAgent(Agent):
     # --- the step --------------------------------------------------------------------------
     def act(self, obs: dict[str, np.ndarray]) -> np.ndarray:
         lrf = self.spec.lrf
-        ranges = np.asarray(obs["lrf"], dtype=np.float64)
         odom = Pose(*(float(v) for v in obs["odom"]))
-        self.scan = scan = preprocess(ranges, self.angles, lrf.range_min_m, lrf.range_max_m)
-        self.lines = lines = split_and_merge(scan)
-        self.features = features = extract_features(scan, lines, ranges, self.angles, lrf.range_max_m)
+        percept = perceive(obs["lrf"], self.angles, lrf)
+        self.scan, self.lines, self.features = scan, _, features = percept.scan, percept.lines, percept.features
         model = self.model
         if self.config.align_scans:
-            seg = lines.segments
-            length = np.hypot(seg[:, 2] - seg[:, 0], seg[:, 3] - seg[:, 1])
-            long = seg[length > 0.5]
-            directions = (long[:, 2:] - long[:, :2]) / length[length > 0.5, None]
-            model.align(odom, scan.points, directions)
+            model.align(odom, scan.points, percept.long_line_directions(0.5))
         self.pose = pose = model.pose(odom)
         model.add_hits(pose, scan.points)
         model.update_exits(pose, features.exits)
@@ -143,21 +181,20 @@ class ClassicAgent(Agent):
         near = scan.points[np.hypot(scan.points[:, 0], scan.points[:, 1]) < 1.2]
         # Remembered hits fill in the blind sector behind the robot; where the LRF looks now,
         # the current scan is the truth (old hits there may be stale after odometry drift).
-        memory = model.hits_near(pose, 1.0, self.config.memory_steps)
+        memory = model.hits_near(pose, 1.0, self._memory)
         memory = memory[np.abs(np.arctan2(memory[:, 1], memory[:, 0])) > lrf.angle_max_rad - 0.05]
         obstacles = np.vstack([near, memory]) if len(memory) else near
 
-        handler = getattr(self, f"_{self.state.lower()}")
-        vx, vy, w = handler(pose, obstacles)
+        vx, vy, w = self._handlers[self.state](pose, obstacles)
         v = keep_in_view(np.array([vx, vy]), self.motion)
         vx, vy, w = safety_filter(obstacles, (float(v[0]), float(v[1]), float(w)), self.motion)
         self.turned += abs(w) * self.spec.dt_s
         # Never freeze: the challenge ends a run after 30 s without sensible movement.
         moving = math.hypot(vx, vy) > 0.02 or abs(w) > 0.05
         self.still_steps = 0 if moving else self.still_steps + 1
-        if self.still_steps * self.spec.dt_s > self.config.max_still_time and self.state != "BACKOFF":
+        if self.still_steps * self.spec.dt_s > self.config.max_still_time and self.state != EscapeState.BACKOFF:
             self.still_steps = 0
-            self._go("BACKOFF")
+            self._go(EscapeState.BACKOFF)
         return np.array([vx, vy, w], dtype=np.float32)
 
     # --- helpers ---------------------------------------------------------------------------
@@ -207,13 +244,13 @@ class ClassicAgent(Agent):
     # --- states ----------------------------------------------------------------------------
     def _start(self, pose: Pose, obstacles: FloatArray) -> tuple[float, float, float]:
         if self.model.best_exit() is not None:
-            self._go("APPROACH")
+            self._go(EscapeState.APPROACH)
             return 0.0, 0.0, 0.0
-        if self._can_rotate(obstacles) and self.state_steps > 3:
-            self._go("LOOK")
+        if self._can_rotate(obstacles) and self.state_steps > self._start_look:
+            self._go(EscapeState.LOOK)
             return 0.0, 0.0, 0.0
-        if self.state_steps > 30:
-            self._go("BACKOFF")
+        if self.state_steps > self._start_timeout:
+            self._go(EscapeState.BACKOFF)
         # Move a little towards open space: what is behind the robot is unknown, and turning
         # in place sweeps a circle of 0.22 m radius.
         v = attract_and_repel(obstacles, 0.2 * self._open_direction(), self.motion, speed=0.2)
@@ -221,10 +258,10 @@ class ClassicAgent(Agent):
 
     def _look(self, pose: Pose, obstacles: FloatArray) -> tuple[float, float, float]:
         if self.model.best_exit() is not None:
-            self._go("APPROACH")
+            self._go(EscapeState.APPROACH)
             return 0.0, 0.0, 0.0
         if self.turned >= self.config.look_turn:
-            self._go("EXPLORE")
+            self._go(EscapeState.EXPLORE)
             return 0.0, 0.0, 0.0
         if not self._can_rotate(obstacles):
             return self._away(obstacles)
@@ -252,7 +289,7 @@ class ClassicAgent(Agent):
             self.chosen = self.model.best_exit()
         track = self.chosen
         if track is None:
-            self._go("LOOK")
+            self._go(EscapeState.LOOK)
             return 0.0, 0.0, 0.0
         centre, direction, front = self._corridor_frame(track)
         heading = self._sideways_heading(direction)
@@ -267,16 +304,16 @@ class ClassicAgent(Agent):
         if lined_up or inside:
             self.corridor_width = track.width
             self.corridor_step = self.model.step
-            self._go("CORRIDOR")
+            self._go(EscapeState.CORRIDOR)
             return 0.0, 0.0, 0.0
         distance = float(np.linalg.norm(front - here))
         if self._check_progress(distance):
             # Could not get in front of it: forget this exit and look again.
             self.model.tracks = [t for t in self.model.tracks if t is not track]
-            self._go("BACKOFF")
+            self._go(EscapeState.BACKOFF)
             return 0.0, 0.0, 0.0
         self.goal = front
-        if not self.path or self.state_steps % self.config.replan_steps == 1:
+        if not self.path or self.state_steps % self._replan == 1:
             self._plan(here, front)
         target = self._lookahead(here, front)
         self.target = target
@@ -298,7 +335,7 @@ class ClassicAgent(Agent):
 
     def _plan(self, here: FloatArray, goal: FloatArray) -> None:
         model = self.model
-        blocked = model.blocked(self.config.inflate, self.config.memory_steps)
+        blocked = model.blocked(self.config.inflate, self._memory)
         start, end = model.cell(here), model.cell(goal)
         # The robot's own cell (and the goal's) may touch the inflated zone: clear a small disc.
         for cell in (start, end):
@@ -375,8 +412,8 @@ class ClassicAgent(Agent):
         self.target = self._to_model(0.6 * direction)
         self.goal = None
         moved = self.model.step - self.corridor_step
-        if self._check_progress(-moved * self.spec.dt_s * float(np.hypot(*v))) and moved > 100:
-            self._go("BACKOFF")
+        if self._check_progress(-moved * self.spec.dt_s * float(np.hypot(*v))) and moved > self._corridor_grace:
+            self._go(EscapeState.BACKOFF)
         return float(v[0]), float(v[1]), heading_rate(heading_error, self.motion)
 
     def _to_model(self, p: FloatArray) -> FloatArray:
@@ -385,7 +422,7 @@ class ClassicAgent(Agent):
 
     def _explore(self, pose: Pose, obstacles: FloatArray) -> tuple[float, float, float]:
         if self.model.best_exit() is not None:
-            self._go("APPROACH")
+            self._go(EscapeState.APPROACH)
             return 0.0, 0.0, 0.0
         here = np.array([pose.x, pose.y])
         if self.goal is None or self.state_steps == 1:
@@ -395,9 +432,9 @@ class ClassicAgent(Agent):
             c, s = math.cos(pose.theta), math.sin(pose.theta)
             self.goal = here + max(reach, 0.3) * np.array([c * d[0] - s * d[1], s * d[0] + c * d[1]])
         distance = float(np.linalg.norm(self.goal - here))
-        if distance < 0.15 or self._check_progress(distance) or self.state_steps > 80:
+        if distance < 0.15 or self._check_progress(distance) or self.state_steps > self._explore_timeout:
             self.goal = None
-            self._go("LOOK")
+            self._go(EscapeState.LOOK)
             return 0.0, 0.0, 0.0
         self.target = self.goal
         v = attract_and_repel(obstacles, self._to_robot(self.goal), self.motion)
@@ -405,10 +442,10 @@ class ClassicAgent(Agent):
         return float(v[0]), float(v[1]), heading_rate(bearing, self.motion) if self._can_rotate(obstacles) else 0.0
 
     def _backoff(self, pose: Pose, obstacles: FloatArray) -> tuple[float, float, float]:
-        if self.state_steps > 12:
+        if self.state_steps > self._backoff:
             self.side = 0.0
             self.chosen = None
-            self._go("LOOK")
+            self._go(EscapeState.LOOK)
             return 0.0, 0.0, 0.0
         return self._away(obstacles)
 
@@ -432,5 +469,5 @@ class ClassicAgent(Agent):
             points=np.array(points).reshape(-1, 2),
             path=np.array(path).reshape(-1, 2),
             target=None if self.target is None else self._to_robot(self.target),
-            text=f"classic: {self.state}",
+            text=f"classic: {self.state.name}",
         )
