@@ -17,7 +17,9 @@ import gymnasium as gym
 
 from pico_gym.agents.base import Agent, RobotSpec
 
-AGENTS = ("classic", "ppo", "wall-follow", "random")
+AGENTS = ("classic", "ppo", "wall-follow", "random", "classic-oracle")
+# Agents that read privileged state (the true pose) for benchmarks: never a baseline to beat.
+PRIVILEGED_AGENTS = ("classic-oracle",)
 CLASSIC_ENVS = ("PicoEscape-v0", "PicoHospital-v0")  # the classic agent has a strategy for these
 
 
@@ -45,6 +47,14 @@ def make_agent(name: str, env: gym.Env, **kwargs: Any) -> Agent:
             f"pico-gym's agents act with a twist (vx, vy, w); {env_id} here takes {env.action_space.shape[0]} "
             "action components (arrival='announce'): use arrival='dwell'"
         )
+    if name == "classic-oracle":
+        if env_id != "PicoHospital-v0":
+            raise ValueError(
+                f"the classic-oracle agent (true pose, privileged) plays PicoHospital-v0 only; got {env_id}"
+            )
+        from pico_gym.agents.classic.hospital import OraclePoseAgent
+
+        return OraclePoseAgent(spec, env, **kwargs)
     if name == "classic" and env_id == "PicoHospital-v0":
         from pico_gym.agents.classic.hospital import HospitalAgent
 
@@ -68,4 +78,4 @@ def make_agent(name: str, env: gym.Env, **kwargs: Any) -> Agent:
     raise ValueError(f"unknown agent {name!r}; agents: {', '.join(AGENTS)}")
 
 
-__all__ = ["AGENTS", "Agent", "RobotSpec", "make_agent"]
+__all__ = ["AGENTS", "PRIVILEGED_AGENTS", "Agent", "RobotSpec", "make_agent"]

@@ -106,3 +106,16 @@ def test_bench_records_and_summaries_carry_the_hospital_metrics() -> None:
     assert record.max_localise_error_m >= record.localise_error_m
     summary = summarize([record])
     assert summary.localised_within_rate == 1.0 and summary.progress_mean == 1.0
+
+
+def test_the_oracle_pose_variant_is_the_same_agent_on_the_true_pose() -> None:
+    from pico_gym.agents.classic.hospital import OraclePoseAgent
+
+    env = gym.make("PicoHospital-v0", map="hospital_2019", **QUIET)
+    agent = make_agent("classic-oracle", env)
+    assert isinstance(agent, OraclePoseAgent) and isinstance(agent, HospitalAgent)
+    info, errors = _play(env, agent, seed=3, options={"cabinet_order": [0, 1, 3]})
+    assert info["termination_reason"] == "done" and info["bumps"] == 0
+    assert max(e[0] for e in errors) < 1e-6 and max(e[1] for e in errors) < 1e-6
+    with pytest.raises(ValueError, match="PicoHospital-v0 only"):
+        make_agent("classic-oracle", gym.make("PicoEscape-v0"))

@@ -644,3 +644,35 @@ class HospitalAgent(Agent):
             target=self.target,
             text=f"classic: {self.state.value}{target} ({self.done}/{len(self.order)}), fit {self.health:.2f}",
         )
+
+
+class OraclePoseAgent(HospitalAgent):
+    """The classic hospital agent handed the true pose every step: privileged, for benchmarks only.
+
+    It is the same agent with localisation replaced by the truth (read from the env it was built
+    for), so comparing it with `classic` on the same episodes separates localisation failures from
+    planning and motion failures. Its `belief()` is the truth, so its localisation figures are 0.
+    """
+
+    name = "classic-oracle"
+
+    def __init__(self, spec: RobotSpec, env: Any, config: HospitalAgentConfig | None = None) -> None:
+        super().__init__(spec, config)
+        self._env = env.unwrapped  # privileged: the true pose
+
+    def _truth(self) -> Pose:
+        pose = self._env.pose
+        return Pose(float(pose.x), float(pose.y), float(pose.theta))
+
+    def act(self, obs: dict[str, np.ndarray]) -> np.ndarray:
+        if not self.localised:
+            self.pose = self._truth()
+            self.localised = True
+            self.localise_s = 0.0
+            self._go(State.NAVIGATE)
+        return super().act(obs)
+
+    def _track(self, odom: Pose, points: FloatArray) -> None:
+        self.pose = self._truth()
+        self.health = 1.0
+        self._update_world(points)
