@@ -95,6 +95,10 @@ class HospitalAgentConfig:
         clear_m: ... or until what the map does not explain is this far [m] ...
         recover_wait_s: ... then waits this long before planning again [s].
         max_still_s: standing still this long (not dwelling) means RECOVER [s].
+        nogo_m, nogo_s: where NAVIGATE made no progress, a disc of this radius just ahead of the
+            robot is kept out of the plan for this long [m, s], so the next plan tries another
+            way (fading the evidence alone sent it back into the same gap); a plan that finds
+            no way with them is made without them.
         beams: beams per scan the localiser uses.
     """
 
@@ -121,6 +125,8 @@ class HospitalAgentConfig:
     recover_wait_s: float = 2.5
     clear_m: float = 0.9
     max_still_s: float = 20.0
+    nogo_m: float = 0.3
+    nogo_s: float = 60.0
     beams: int = 90
 
 
@@ -260,6 +266,7 @@ class HospitalAgent(Agent):
         self.localise_s: float | None = None
         self._last_points = np.zeros((0, 2))
         self.still_steps = 0
+        self.nogo: list[tuple[float, float, int]] = []  # (x, y, until step), map frame
 
     def belief(self) -> Pose | None:
         """The agent's estimate of its pose in the map frame (None before it has localised)."""
@@ -399,13 +406,27 @@ class HospitalAgent(Agent):
         c, s = math.cos(self.pose.theta), math.sin(self.pose.theta)
         return np.column_stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]])
 
-    def blocked(self) -> np.ndarray:
-        """The planning grid: the map inflated, plus the evidence of what it does not show."""
+    def blocked(self, nogo: bool = False) -> np.ndarray:
+        """The planning grid: the map inflated, plus the evidence of what it does not show (and,
+        with `nogo`, the discs where the robot recently made no progress)."""
         cfg = self.config
         seen = self.evidence >= cfg.evidence_block
-        if not seen.any():
-            return self.map_blocked.copy()
-        return self.map_blocked | _dilate(seen, int(math.ceil((cfg.inflate_m + 0.05) / cfg.cell_m)))
+        out = (
+            self.map_blocked.copy()
+            if not seen.any()
+            else self.map_blocked | _dilate(seen, int(math.ceil((cfg.inflate_m + 0.05) / cfg.cell_m)))
+        )
+        if nogo:
+            g = self.grid
+            k = int(math.ceil(cfg.nogo_m / cfg.cell_m))
+            for x, y, _until in self.nogo:
+                r, c = self._cell(np.array([x, y]))
+                rr, cc = np.ogrid[-k : k + 1, -k : k + 1]
+                disc = rr * rr + cc * cc <= k * k
+                r0, c0 = max(r - k, 0), max(c - k, 0)
+                r1, c1 = min(r + k + 1, g.shape[0]), min(c + k + 1, g.shape[1])
+                out[r0:r1, c0:c1] |= disc[r0 - (r - k) : r1 - (r - k), c0 - (c - k) : c1 - (c - k)]
+        return out
 
     def _cell(self, p: FloatArray) -> tuple[int, int]:
         g = self.grid
@@ -418,13 +439,18 @@ class HospitalAgent(Agent):
         return np.array([g.x0 + (cell[1] + 0.5) * g.resolution, g.y0 + (cell[0] + 0.5) * g.resolution])
 
     def _plan(self, goal: FloatArray) -> bool:
-        blocked = self.blocked()
+        self.nogo = [n for n in self.nogo if n[2] > self.steps]
         here = np.array([self.pose.x, self.pose.y])
         start, end = self._cell(here), self._cell(goal)
         k = int(self.config.inflate_m / self.config.cell_m)
-        for r, c in (start, end):  # the robot's own cell (and the goal's) may touch the inflation
-            blocked[max(r - k, 0) : r + k + 1, max(c - k, 0) : c + k + 1] = False
-        path = astar(blocked, start, end)
+        path = None
+        for nogo in (True, False) if self.nogo else (False,):
+            blocked = self.blocked(nogo)
+            for r, c in (start, end):  # the robot's own cell (and the goal's) may touch the inflation
+                blocked[max(r - k, 0) : r + k + 1, max(c - k, 0) : c + k + 1] = False
+            path = astar(blocked, start, end)
+            if path is not None:
+                break
         self.plan_step = self.steps
         if path is None:
             self.path = []
@@ -499,6 +525,11 @@ class HospitalAgent(Agent):
         while len(self.path) > 1 and np.linalg.norm(self.path[0] - here) < cfg.lookahead_m:
             self.path.pop(0)
         if self._progress(self._remaining(here)):  # progress along the way, not as the crow flies
+            ahead = self.path[0] - here
+            gap = float(np.hypot(*ahead))
+            spot = here + ahead * min(1.0, (cfg.nogo_m + 0.1) / gap) if gap > 1e-6 else here
+            if float(np.linalg.norm(goal - spot)) > cfg.nogo_m + 0.3:  # never the goal itself
+                self.nogo.append((float(spot[0]), float(spot[1]), self.steps + self._steps(cfg.nogo_s)))
             self._go(State.RECOVER)
             return 0.0, 0.0, 0.0
         target = self.path[0]
