@@ -122,10 +122,13 @@ def clip_twist(action: np.ndarray, config: RobotConfig) -> tuple[float, float, f
     >>> clip_twist(np.array([0.5, 0.5, 2.0]), RobotConfig())
     (0.35355339059327373, 0.35355339059327373, 1.2)
     """
-    a = np.asarray(action, dtype=np.float64)
-    if a.size != 3:
-        raise ValueError(f"action must have 3 components (vx, vy, w), got shape {np.shape(action)}")
-    vx, vy, w = a.ravel().tolist()
+    if type(action) is np.ndarray and action.shape == (3,) and action.dtype.kind == "f":
+        vx, vy, w = action.tolist()  # the common case, without a conversion (float32 -> float exactly)
+    else:
+        a = np.asarray(action, dtype=np.float64)
+        if a.size != 3:
+            raise ValueError(f"action must have 3 components (vx, vy, w), got shape {np.shape(action)}")
+        vx, vy, w = a.ravel().tolist()
     for name, value in zip(ACTION_NAMES, (vx, vy, w), strict=True):
         if not math.isfinite(value):
             raise ValueError(f"action component {name} is {value}; actions must be finite")

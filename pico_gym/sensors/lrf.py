@@ -323,6 +323,7 @@ class Lrf:
         self._cos = np.cos(self.beam_angles)
         self._sin = np.sin(self.beam_angles)
         self._ranges = np.empty(config.n_beams)
+        self._unit = np.empty(config.n_beams)
 
     def space(self) -> gym.spaces.Box:
         """The observation space of a scan, metres."""
@@ -377,7 +378,11 @@ class Lrf:
         """
         cfg = self.config
         ranges = self.exact(pose, segments, dynamic, one_sided)
-        unit = rng.random(cfg.n_beams) if cfg.noise_m > 0.0 else np.full(cfg.n_beams, 0.5)
+        unit = self._unit
+        if cfg.noise_m > 0.0:
+            rng.random(out=unit)  # the same draws as rng.random(n_beams), into a kept buffer
+        else:
+            unit.fill(0.5)
         no_hit = 0.0 if cfg.no_hit == "zero" else cfg.range_max_m
         out = np.empty(cfg.n_beams, dtype=np.float32)
         _noisy(ranges, unit, cfg.noise_m, cfg.range_min_m, cfg.range_max_m, no_hit, out)
