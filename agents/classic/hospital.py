@@ -41,6 +41,7 @@ from pico_gym.agents.classic.localisation import Localiser, scan_points
 from pico_gym.agents.classic.potential_field import (
     MotionConfig,
     attract_and_repel,
+    footprint_distance,
     heading_rate,
     keep_in_view,
     motion_for,
@@ -95,6 +96,8 @@ class HospitalAgentConfig:
         clear_m: ... or until what the map does not explain is this far [m] ...
         recover_wait_s: ... then waits this long before planning again [s].
         max_still_s: standing still this long (not dwelling) means RECOVER [s].
+        unexplained_margin_m: the safety filter keeps this much more room from points the map does
+            not explain (boxes, people: they move, or were seen late) than from its walls [m].
         nogo_m, nogo_s: where NAVIGATE made no progress, a disc of this radius just ahead of the
             robot is kept out of the plan for this long [m, s], so the next plan tries another
             way (fading the evidence alone sent it back into the same gap); a plan that finds
@@ -125,6 +128,7 @@ class HospitalAgentConfig:
     recover_wait_s: float = 2.5
     clear_m: float = 0.9
     max_still_s: float = 20.0
+    unexplained_margin_m: float = 0.08
     nogo_m: float = 0.3
     nogo_s: float = 60.0
     beams: int = 90
@@ -300,6 +304,7 @@ class HospitalAgent(Agent):
             # The blind sector behind the robot: the map's walls and what the evidence holds there.
             behind = self._remembered()
             near = np.vstack([near, behind[np.abs(np.arctan2(behind[:, 1], behind[:, 0])) > lrf.angle_max_rad - 0.05]])
+            near = self._wary(near)
 
         if self.state is State.LOCALISE:
             vx, vy, w = self._localise(odom, points, near)
@@ -394,6 +399,24 @@ class HospitalAgent(Agent):
             cfg.evidence_miss,
             cfg.evidence_max,
         )
+
+    def _wary(self, near: FloatArray) -> FloatArray:
+        """`near` with the points the map does not explain pulled `unexplained_margin_m` towards
+        the robot, so the safety filter keeps that much more room from boxes and people."""
+        margin = self.config.unexplained_margin_m
+        if margin <= 0.0 or len(near) == 0:
+            return near
+        c, s = math.cos(self.pose.theta), math.sin(self.pose.theta)
+        ex = self.pose.x + c * near[:, 0] - s * near[:, 1]
+        ey = self.pose.y + s * near[:, 0] + c * near[:, 1]
+        odd = self.localiser.distance_at(ex, ey) > self.config.unexplained_m
+        if not odd.any():
+            return near
+        d, away = footprint_distance(near[odd], self.motion)
+        closer = np.maximum(d - margin, np.minimum(d, 0.001))  # never into the footprint (ignored there)
+        out = near.copy()
+        out[odd] -= away * (d - closer)[:, None]
+        return out
 
     def _remembered(self) -> FloatArray:
         """Robot-frame points within 1.2 m: the map's walls and the evidence cells."""
