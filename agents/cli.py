@@ -185,7 +185,14 @@ def cmd_run(args: argparse.Namespace) -> int:
         if len(frames) < args.max_frames:
             frames.append(env.render())
 
-    record = run_episode(env, agent, args.seed, args.agent, on_step=record_frame if args.gif or args.video else None)
+    record = run_episode(
+        env,
+        agent,
+        args.seed,
+        args.agent,
+        on_step=record_frame if args.gif or args.video else None,
+        options=_reset_options(args) or None,
+    )
     if args.gif:
         save_gif(frames, args.gif, env.metadata["render_fps"])
         print(f"wrote {args.gif} ({len(frames)} frames)")

@@ -174,3 +174,13 @@ def test_perception_is_one_value_both_agents_read() -> None:
     assert np.array_equal(percept.lines.segments, split_and_merge(scan).segments)
     directions = percept.long_line_directions()
     assert np.allclose(np.hypot(directions[:, 0], directions[:, 1]), 1.0)
+
+
+def test_run_takes_the_reset_options(capsys: pytest.CaptureFixture[str]) -> None:
+    # `run --option` used to be accepted and ignored: it must reach the reset (a bad one is refused).
+    assert main(["run", "--env", "PicoHospital-v0", "--map", "hospital_2019", "--option", "cabinet_order=[99]"]) == 2
+    assert "--option" in capsys.readouterr().err
+    args = ["run", "--env", "PicoHospital-v0", "--map", "hospital_2019", "--seed", "3", "--option", "cabinet_order=[0]"]
+    assert main([*args, "--set", "n_movers=(0, 0)", "--set", "n_boxes=(0, 0)", "--set", "closed_doors=(0, 0)"]) == 0
+    out = capsys.readouterr().out
+    assert "outcome: done" in out
