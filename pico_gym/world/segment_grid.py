@@ -102,6 +102,29 @@ def _pack(segments: Segments, one_sided: np.ndarray, items: np.ndarray) -> np.nd
 
 
 @njit
+def _slab(p: float, w: float, size: float, t_in: float, t_out: float) -> tuple[float, float]:
+    """Narrow the beam's [t_in, t_out] to where it lies within [0, size] along one axis
+    (p: the sensor's coordinate, w: the beam's direction component)."""
+    if w != 0.0:
+        ta = -p / w
+        tb = (size - p) / w
+        return max(t_in, min(ta, tb)), min(t_out, max(ta, tb))
+    if not 0.0 <= p <= size:
+        return t_in, -1.0
+    return t_in, t_out
+
+
+@njit
+def _axis(p: float, w: float, i: int, h: float) -> tuple[int, float, float]:
+    """The traversal along one axis from cell i: (step, t at the next cell boundary, t per cell)."""
+    if w > 0.0:
+        return 1, ((i + 1) * h - p) / w, h / w
+    if w < 0.0:
+        return -1, (i * h - p) / w, -h / w
+    return 0, math.inf, math.inf
+
+
+@njit
 def _cast_grid(
     x: float,
     y: float,
@@ -140,50 +163,15 @@ def _cast_grid(
         j = j_in
         if not inside:
             # Where the beam enters the grid (t >= 0), if it does.
-            t_in = 0.0
-            if wx != 0.0:
-                ta = -px / wx
-                tb = (gw - px) / wx
-                t_in = max(t_in, min(ta, tb))
-                t_out = min(t_out, max(ta, tb))
-            elif not 0.0 <= px <= gw:
-                t_out = -1.0
-            if wy != 0.0:
-                ta = -py / wy
-                tb = (gh - py) / wy
-                t_in = max(t_in, min(ta, tb))
-                t_out = min(t_out, max(ta, tb))
-            elif not 0.0 <= py <= gh:
-                t_out = -1.0
+            t_in, t_out = _slab(px, wx, gw, 0.0, t_out)
+            t_in, t_out = _slab(py, wy, gh, t_in, t_out)
             if t_in > t_out:
                 out[b] = math.inf
                 continue
             i = min(nx - 1, max(0, int(math.floor((px + t_in * wx) / h))))
             j = min(ny - 1, max(0, int(math.floor((py + t_in * wy) / h))))
-        if wx > 0.0:
-            step_i = 1
-            t_next_x = ((i + 1) * h - px) / wx
-            dt_x = h / wx
-        elif wx < 0.0:
-            step_i = -1
-            t_next_x = (i * h - px) / wx
-            dt_x = -h / wx
-        else:
-            step_i = 0
-            t_next_x = math.inf
-            dt_x = math.inf
-        if wy > 0.0:
-            step_j = 1
-            t_next_y = ((j + 1) * h - py) / wy
-            dt_y = h / wy
-        elif wy < 0.0:
-            step_j = -1
-            t_next_y = (j * h - py) / wy
-            dt_y = -h / wy
-        else:
-            step_j = 0
-            t_next_y = math.inf
-            dt_y = math.inf
+        step_i, t_next_x, dt_x = _axis(px, wx, i, h)
+        step_j, t_next_y, dt_y = _axis(py, wy, j, h)
         while True:
             cell = j * nx + i
             for q in range(starts[cell], starts[cell + 1]):
