@@ -249,34 +249,19 @@ def _hallway_legs(rng: np.random.Generator, cfg: HospitalConfig, shape: str) -> 
     return legs
 
 
-def generate_hospital(
-    rng: np.random.Generator, config: HospitalConfig | None = None, robot: RobotConfig | None = None
-) -> GeneratedHospital:
-    """Draw a hospital by the 2019 rules (module docstring).
+def row_rooms(
+    rng: np.random.Generator, legs: list[Rect], target_rooms: int, room_side_m: tuple[float, float]
+) -> tuple[list[Rect], list[tuple[int, str]], list[tuple[int, str, int]]]:
+    """Rooms in rows along both sides of the hallway legs, 0.2 m walls apart, until `target_rooms`.
 
-    Raises:
-        RuntimeError: if no hospital satisfying the rules was found in 200 tries (the ranges in
-            `config` contradict each other).
+    Returns the rooms, the (leg, side) each hangs off and its (leg, side, position in its row).
     """
-    cfg = config or HospitalConfig()
-    robot = robot or RobotConfig()
-    for _ in range(200):
-        built = _try_generate(rng, cfg, robot)
-        if built is not None:
-            return built
-    raise RuntimeError(f"no hospital satisfies {cfg} (200 tries)")
-
-
-def _try_generate(rng: np.random.Generator, cfg: HospitalConfig, robot: RobotConfig) -> GeneratedHospital | None:
-    shape = str(cfg.hallway_shapes[int(rng.integers(len(cfg.hallway_shapes)))])
-    legs = _hallway_legs(rng, cfg, shape)
-    target_rooms = int(rng.integers(cfg.n_rooms[0], cfg.n_rooms[1] + 1))
     rooms: list[Rect] = []
     attach: list[tuple[int, str]] = []  # (leg index, side) each room hangs off
     row_of: list[tuple[int, str, int]] = []  # (leg, side, position in its row)
     sides = [(k, side) for k in range(len(legs)) for side in ("low", "high")]
     order = rng.permutation(len(sides))
-    lo, hi = cfg.room_side_m
+    lo, hi = room_side_m
     for s in order:
         k, side = sides[s]
         x0, y0, x1, y1 = legs[k]
@@ -313,6 +298,32 @@ def _try_generate(rng: np.random.Generator, cfg: HospitalConfig, robot: RobotCon
             pos += w + WALL_M
         if len(rooms) >= target_rooms:
             break
+    return rooms, attach, row_of
+
+
+def generate_hospital(
+    rng: np.random.Generator, config: HospitalConfig | None = None, robot: RobotConfig | None = None
+) -> GeneratedHospital:
+    """Draw a hospital by the 2019 rules (module docstring).
+
+    Raises:
+        RuntimeError: if no hospital satisfying the rules was found in 200 tries (the ranges in
+            `config` contradict each other).
+    """
+    cfg = config or HospitalConfig()
+    robot = robot or RobotConfig()
+    for _ in range(200):
+        built = _try_generate(rng, cfg, robot)
+        if built is not None:
+            return built
+    raise RuntimeError(f"no hospital satisfies {cfg} (200 tries)")
+
+
+def _try_generate(rng: np.random.Generator, cfg: HospitalConfig, robot: RobotConfig) -> GeneratedHospital | None:
+    shape = str(cfg.hallway_shapes[int(rng.integers(len(cfg.hallway_shapes)))])
+    legs = _hallway_legs(rng, cfg, shape)
+    target_rooms = int(rng.integers(cfg.n_rooms[0], cfg.n_rooms[1] + 1))
+    rooms, attach, row_of = row_rooms(rng, legs, target_rooms, cfg.room_side_m)
     if len(rooms) < cfg.n_rooms[0]:
         return None
 
@@ -321,19 +332,9 @@ def _try_generate(rng: np.random.Generator, cfg: HospitalConfig, robot: RobotCon
     doors: list[Rect] = []
     room_doors: list[list[Rect]] = [[] for _ in rooms]
     for i, (room, (k, side)) in enumerate(zip(rooms, attach, strict=True)):
-        leg = legs[k]
-        horizontal = (leg[2] - leg[0]) >= (leg[3] - leg[1])
-        a0, a1 = (
-            (max(room[0], leg[0]), min(room[2], leg[2])) if horizontal else (max(room[1], leg[1]), min(room[3], leg[3]))
-        )
-        width = float(rng.uniform(*cfg.door_width_m))
-        if a1 - a0 < width + 2 * margin:
+        door = hallway_door(rng, room, legs[k], side, cfg.door_width_m, margin)
+        if door is None:
             return None
-        s0 = float(rng.uniform(a0 + margin, a1 - margin - width))
-        if horizontal:
-            door = (s0, leg[3], s0 + width, room[1]) if side == "high" else (s0, room[3], s0 + width, leg[1])
-        else:
-            door = (leg[2], s0, room[0], s0 + width) if side == "high" else (room[2], s0, leg[0], s0 + width)
         doors.append(door)
         room_doors[i].append(door)
     # Extra doors between neighbouring rooms of a row (loops allowed, as in 2019).
@@ -342,7 +343,7 @@ def _try_generate(rng: np.random.Generator, cfg: HospitalConfig, robot: RobotCon
             a, b = rooms[i], rooms[j]
             if rng.random() >= cfg.extra_door_probability:
                 continue
-            door = _shared_wall_door(rng, a, b, cfg)
+            door = shared_wall_door(rng, a, b, cfg.door_width_m, cfg.door_corner_margin_m)
             if door is not None:
                 doors.append(door)
                 room_doors[i].append(door)
@@ -390,10 +391,27 @@ def _try_generate(rng: np.random.Generator, cfg: HospitalConfig, robot: RobotCon
     return GeneratedHospital(world, tuple(legs), tuple(rooms), tuple(doors), shape)
 
 
-def _shared_wall_door(rng: np.random.Generator, a: Rect, b: Rect, cfg: HospitalConfig) -> Rect | None:
+def hallway_door(
+    rng: np.random.Generator, room: Rect, leg: Rect, side: str, width_m: tuple[float, float], margin: float
+) -> Rect | None:
+    """A door opening from `room` to the hallway leg it hangs off (on `side`), at least `margin`
+    from the corners of the wall it is in; None if the shared wall is too short."""
+    horizontal = (leg[2] - leg[0]) >= (leg[3] - leg[1])
+    a0, a1 = (max(room[0], leg[0]), min(room[2], leg[2])) if horizontal else (max(room[1], leg[1]), min(room[3], leg[3]))
+    width = float(rng.uniform(*width_m))
+    if a1 - a0 < width + 2 * margin:
+        return None
+    s0 = float(rng.uniform(a0 + margin, a1 - margin - width))
+    if horizontal:
+        return (s0, leg[3], s0 + width, room[1]) if side == "high" else (s0, room[3], s0 + width, leg[1])
+    return (leg[2], s0, room[0], s0 + width) if side == "high" else (room[2], s0, leg[0], s0 + width)
+
+
+def shared_wall_door(
+    rng: np.random.Generator, a: Rect, b: Rect, width_m: tuple[float, float], margin: float
+) -> Rect | None:
     """A door in the 0.2 m wall between two rooms, if they share one long enough."""
-    margin = cfg.door_corner_margin_m
-    width = float(rng.uniform(*cfg.door_width_m))
+    width = float(rng.uniform(*width_m))
     for p, q in ((a, b), (b, a)):
         if abs(q[0] - p[2] - WALL_M) < 1e-6:  # q right of p
             lo, hi = max(p[1], q[1]), min(p[3], q[3])
