@@ -10,10 +10,11 @@ from gymnasium.envs.registration import register, registry
 
 __version__ = "0.1.0"
 
-ENV_IDS = ("PicoEscape-v0", "PicoHospital-v0")
+ENV_IDS = ("PicoEscape-v0", "PicoHospital-v0", "PicoExplore-v0")
 _ENTRY_POINTS = {
     "PicoEscape-v0": "pico_gym.envs.escape_env:PicoEscapeEnv",
     "PicoHospital-v0": "pico_gym.envs.hospital_env:PicoHospitalEnv",
+    "PicoExplore-v0": "pico_gym.envs.explore_env:PicoExploreEnv",
 }
 
 

@@ -146,10 +146,7 @@ class Physics:
         self.robot = robot
         self.scene = scene
         self._circumradius_m = robot.circumradius_m  # a property that walks the outline: once
-        self._segments = np.ascontiguousarray(segments, dtype=np.float64).reshape(-1, 4)
         self._outline = np.ascontiguousarray(robot.outline, dtype=np.float64)
-        self._near = np.empty_like(self._segments)  # the segments a contact step may reach
-        self._near_n = 0
         # The caps a contact may not push the robot past (a hair above them: the drive itself
         # reaches the commanded velocity only up to rounding).
         self._speed_cap = robot.max_speed_mps * (1.0 + _CAP_TOLERANCE)
@@ -158,11 +155,9 @@ class Physics:
         space = pymunk.Space()
         space.iterations = config.iterations
         space.collision_slop = config.collision_slop_m
-        codes = np.full(len(segments), WALL, dtype=np.int8) if kinds is None else kinds
-        for (x1, y1, x2, y2), kind in zip(segments, codes, strict=True):
-            wall = pymunk.Segment(space.static_body, (x1, y1), (x2, y2), 0.0)  # friction: pymunk's 0
-            wall.collision_type = _KIND_BASE + int(kind)
-            space.add(wall)
+        self.space = space
+        self._segments = np.zeros((0, 4))
+        self.add_static(segments, kinds)
         self._mover_bodies: list[pymunk.Body] = []
         self._bodies_stale = False  # the movers moved (gliding) since the bodies were placed
         self._pending: tuple | None = None  # the robot's state after glides, not yet in pymunk
@@ -208,7 +203,6 @@ class Physics:
         for k in range(len(KINDS)):
             space.on_collision(_ROBOT, _KIND_BASE + k, begin=self._begin, separate=self._separate, data=k)
 
-        self.space = space
         self.body = body
         self.control = control
         self.contacts = 0
@@ -218,6 +212,27 @@ class Physics:
         self.time_s = 0.0
         self._contact_ended_s = -math.inf
         self._command = (0.0, 0.0, 0.0)
+
+    def add_static(self, segments: Segments, kinds: np.ndarray | None = None) -> None:
+        """Add static geometry (e.g. an object a task places mid-episode); contacts with what is
+        already there are left alone.
+
+        Args:
+            segments: (N, 4) static solid geometry to add, map frame.
+            kinds: (N,) kind code of each segment; default all walls.
+        """
+        segments = np.ascontiguousarray(segments, dtype=np.float64).reshape(-1, 4)
+        self._segments = np.vstack([self._segments, segments]) if len(self._segments) else segments
+        self._near = np.empty_like(self._segments)  # the segments a contact step may reach
+        self._near_n = 0
+        codes = np.full(len(segments), WALL, dtype=np.int8) if kinds is None else kinds
+        shapes = []
+        for (x1, y1, x2, y2), kind in zip(segments.tolist(), codes, strict=True):
+            wall = pymunk.Segment(self.space.static_body, (x1, y1), (x2, y2), 0.0)  # friction: pymunk's 0
+            wall.collision_type = _KIND_BASE + int(kind)
+            shapes.append(wall)
+        if shapes:
+            self.space.add(*shapes)
 
     @classmethod
     def from_scene(cls, scene: Scene, robot: RobotConfig, config: PhysicsConfig, pose: Pose) -> Physics:

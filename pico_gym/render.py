@@ -210,8 +210,12 @@ class Renderer:
         return np.transpose(pygame.surfarray.array3d(surface), (1, 0, 2)).copy()
 
     def _draw_marks(self, surface: Any, view: View, marks: dict[str, Any]) -> None:
-        """A task's marks: arrival squares (done ones green) with their place in the order."""
+        """A task's marks: arrival squares (done ones green) with their place in the order, and
+        lines (e.g. the explore task's parking wall)."""
         pygame = _pygame()
+        for line, _label in marks.get("lines", ()):
+            a, b = view.px(np.asarray(line, dtype=float).reshape(2, 2))
+            pygame.draw.line(surface, DONE, a, b, 4)
         for square, label, done in marks.get("squares", ()):
             pygame.draw.polygon(surface, DONE if done else SQUARE, view.px(square), 2 if not done else 0)
             if label:

@@ -6,6 +6,7 @@ import importlib
 from typing import Any
 
 from pico_gym.envs.escape_env import PicoEscapeEnv
+from pico_gym.envs.explore_env import PicoExploreEnv
 from pico_gym.envs.hospital_env import PicoHospitalEnv
 
 
@@ -18,4 +19,4 @@ def env_class(spec: Any) -> Any:
     return getattr(importlib.import_module(module), name)
 
 
-__all__ = ["PicoEscapeEnv", "PicoHospitalEnv", "env_class"]
+__all__ = ["PicoEscapeEnv", "PicoExploreEnv", "PicoHospitalEnv", "env_class"]

@@ -31,7 +31,7 @@ from pico_gym.validate import number
 from pico_gym.world import geometry
 from pico_gym.world.geometry import compose, inverse, wrap_angle
 from pico_gym.world.map import Map
-from pico_gym.world.scene import KINDS, SceneSnapshot
+from pico_gym.world.scene import KINDS, Scene, SceneSnapshot
 
 # Clearance is computed exactly up to this distance; farther reads as this value [m].
 CLEARANCE_CAP_M = 2.0
@@ -135,6 +135,7 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self._renderer: Any = None
         self._overlay: Overlay | Callable[[], Overlay] | None = None
         self._idle = IdleTimer(task.idle_rule)
+        self._on_scan = getattr(task, "on_scan", None)
         self.episode: Episode | None = None
         self._finished = False
 
@@ -168,19 +169,18 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self.episode = self.task.new_episode(self.np_random, options, start)
         ep = self.episode
         scene = ep.scene
-        self.scene = scene
         if start is not None:
             footprint = geometry.transform_points(start, self._outline)
             if geometry.polygon_clearance(footprint, scene.solid_segments()) <= 0.0:
                 raise ValueError(f"options['start_pose'] {tuple(start)} puts the robot in a wall")
             if not math.isfinite(ep.shortest_path_length_m):
                 raise ValueError(f"options['start_pose'] {tuple(start)} has no path to {self.task.goal_name}")
-        self._seen = scene.lrf_static
-        self._one_sided = scene.static_one_sided
-        self._solid = scene.static_solid
+        self._use_scene(scene)
         self._movers = scene.mover_segments if scene.has_movers else None
         self._mover_speed = scene.max_mover_speed_mps
         self.physics = Physics.from_scene(scene, self.config.robot, self.config.physics, ep.start)
+        self._excused = [0] * len(KINDS)  # contacts the task's rules excused, by kind
+        self._n_excused = 0
         odom0 = self.odometry.reset(self.np_random)
         # The odometry frame in the map: where the robot started, minus where odometry says it is.
         self._map_from_odom = compose(ep.start, inverse(odom0))
@@ -196,6 +196,8 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self.bump_points: list[Pose] = []
         self._finished = False
         self.last_scan = self.lrf.scan(ep.start, self._seen, self.np_random, self._movers, self._one_sided)
+        if self._on_scan is not None:
+            self._on_scan(ep.start, self.last_scan)
         info = self._info({}, None, False, 0.0)
         if ep.public is not None:
             info["task"] = ep.public
@@ -235,9 +237,11 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         new_bumps = physics.bumps - bumps_before
         kinds: tuple[str, ...] = ()
         if new_bumps:
-            self.bump_points.append(pose)
             kinds = tuple(physics.bump_log[-new_bumps:])
         self.trajectory.append(pose)
+        self.last_scan = self.lrf.scan(pose, self._seen, self.np_random, self._movers, self._one_sided)
+        if self._on_scan is not None:
+            self._on_scan(pose, self.last_scan)
 
         ctx = StepContext(
             previous,
@@ -245,7 +249,7 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
             (true_vx, true_vy, true_w),
             new_bumps,
             kinds,
-            physics.bumps,
+            physics.bumps - self._n_excused,
             idle_s,
             dt,
             self.sim_time_s,
@@ -254,6 +258,15 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
             extras,
         )
         outcome = self.task.evaluate(ctx)
+        if outcome.excused_bumps:
+            for kind in outcome.excused_bumps:
+                self._excused[KINDS.index(kind)] += 1
+            self._n_excused += len(outcome.excused_bumps)
+            new_bumps -= len(outcome.excused_bumps)
+        if new_bumps:
+            self.bump_points.append(pose)
+        if outcome.new_scene is not None:
+            self._change_scene(outcome.new_scene)
         reason = outcome.termination_reason
         terminated = reason is not None
         truncated = not terminated and timed_out(self.sim_time_s, self.task.time_limit_s)
@@ -262,7 +275,6 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self._finished = terminated or truncated
         reward = float(sum(outcome.reward_terms.values()))
         cost = float(new_bumps) + (dt if self._clearance < COST_CLEARANCE_M else 0.0)
-        self.last_scan = self.lrf.scan(pose, self._seen, self.np_random, self._movers, self._one_sided)
         if self.render_mode == "human":
             self.render()
         return (
@@ -272,6 +284,24 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
             truncated,
             self._info(outcome.reward_terms, reason, outcome.is_success, cost),
         )
+
+    def _use_scene(self, scene: Scene) -> None:
+        self.scene = scene
+        self._seen = scene.lrf_static
+        self._one_sided = scene.static_one_sided
+        self._solid = scene.static_solid
+
+    def _change_scene(self, scene: Scene) -> None:
+        """Switch to a scene with the same movers and more static geometry (from the next step)."""
+        if scene.movers is not self.scene.movers:
+            raise ValueError("a task's new scene must keep the episode's movers")
+        before = {tuple(row) for row in self._solid.tolist()}
+        added = np.array([row not in before for row in map(tuple, scene.static_solid.tolist())], dtype=bool)
+        if len(before) + int(added.sum()) != len({tuple(row) for row in scene.static_solid.tolist()}):
+            raise ValueError("a task's new scene may add static geometry, not remove it")
+        self._use_scene(scene)
+        self.physics.add_static(scene.static_solid[added], scene.static_kinds[added])
+        self._clearance = self._footprint_clearance(self._pose)
 
     def _split_action(self, action: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         if self._n_extras == 0:
@@ -307,8 +337,8 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         info = {
             "pose": np.array(pose),
             "odom_error": self.odometry_error(),
-            "bumps": physics.bumps,
-            "bumps_by_kind": dict(zip(KINDS, physics.bumps_by_kind, strict=True)),
+            "bumps": physics.bumps - self._n_excused,
+            "bumps_by_kind": {k: n - e for k, n, e in zip(KINDS, physics.bumps_by_kind, self._excused, strict=True)},
             "clearance": self._clearance,
             "min_clearance": self._min_clearance,
             "sim_time": self.sim_time_s,
@@ -365,7 +395,7 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
             scan_points=np.column_stack([pose.x + r * np.cos(angles), pose.y + r * np.sin(angles)]),
             map_from_odom=self._map_from_odom,
             sim_time_s=self.sim_time_s,
-            bumps=self.physics.bumps,
+            bumps=self.physics.bumps - self._n_excused,
             marks=marks_fn() if marks_fn is not None else {},
         )
 

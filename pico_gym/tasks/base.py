@@ -119,11 +119,23 @@ class StepContext(NamedTuple):
 
 
 class StepOutcome(NamedTuple):
-    """The task's verdict on a step."""
+    """The task's verdict on a step.
+
+    Attributes:
+        reward_terms: the named reward terms (the reward is their sum).
+        termination_reason: why the episode ends, or None.
+        is_success: whether it ended in success.
+        new_scene: a scene the world changes into from the next step on (e.g. the explore task's
+            object, placed once the robot has parked), or None.
+        excused_bumps: the kinds of the step's new contacts the task's rules do not count as bumps
+            (e.g. the gentle touch of the parking wall); the template leaves them out of `bumps`.
+    """
 
     reward_terms: dict[str, float]
     termination_reason: str | None
     is_success: bool
+    new_scene: Scene | None = None
+    excused_bumps: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True, eq=False)
@@ -197,3 +209,6 @@ class Task(Protocol):
     def info(self) -> dict[str, Any]:
         """The task's own `info` keys for the current state (privileged: metrics only)."""
         ...
+
+    # Optional: `on_scan(pose, ranges)`, called with every scan the robot takes (at reset, and in
+    # each step before `evaluate`), for tasks that score what the robot has seen.
