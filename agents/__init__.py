@@ -20,7 +20,7 @@ from pico_gym.agents.base import Agent, RobotSpec
 AGENTS = ("classic", "ppo", "wall-follow", "random", "classic-oracle")
 # Agents that read privileged state (the true pose) for benchmarks: never a baseline to beat.
 PRIVILEGED_AGENTS = ("classic-oracle",)
-CLASSIC_ENVS = ("PicoEscape-v0", "PicoHospital-v0")  # the classic agent has a strategy for these
+CLASSIC_ENVS = ("PicoEscape-v0", "PicoHospital-v0", "PicoExplore-v0")  # the classic agent has a strategy for these
 
 
 def make_agent(name: str, env: gym.Env, **kwargs: Any) -> Agent:
@@ -55,6 +55,10 @@ def make_agent(name: str, env: gym.Env, **kwargs: Any) -> Agent:
         from pico_gym.agents.classic.hospital import OraclePoseAgent
 
         return OraclePoseAgent(spec, env, **kwargs)
+    if name == "classic" and env_id == "PicoExplore-v0":
+        from pico_gym.agents.classic.explore import ExploreAgent
+
+        return ExploreAgent(spec, **kwargs)
     if name == "classic" and env_id == "PicoHospital-v0":
         from pico_gym.agents.classic.hospital import HospitalAgent
 
