@@ -53,6 +53,15 @@ class EpisodeRecord:
     localise_error_deg: float | None = None  # ... and heading
     max_localise_error_m: float | None = None  # the worst position error of the belief over the run
     near_mover_s: float = 0.0  # time the robot's centre spent within 0.5 m of a mover's box
+    # PicoExplore-v0 (None elsewhere)
+    parked: bool | None = None
+    explored: bool | None = None  # every room seen to the task's explore_coverage when it parked
+    coverage: float | None = None
+    min_room_coverage: float | None = None
+    time_to_park_s: float | None = None
+    parking_heading_deg: float | None = None
+    parking_lateral_m: float | None = None
+    map_iou: float | None = None  # the agent's map_belief() against the true free space, at the end
 
     @property
     def spl(self) -> float:
@@ -78,7 +87,7 @@ def run_episode(
     """Play one seeded episode to its end (`options`: the env's reset options)."""
     obs, info = env.reset(seed=seed, options=options)
     agent.reset(obs, info)
-    order = info["task"].cabinet_order if "task" in info else None
+    order = getattr(info.get("task"), "cabinet_order", None)
     belief = getattr(agent, "belief", None)
     times = []
     localised: tuple[float, float, float] | None = None  # (time, position error, heading error)
@@ -106,6 +115,7 @@ def run_episode(
         if terminated or truncated:
             break
     progress = float(info["cabinets_done"]) / len(order) if order else float(bool(info["is_success"]))
+    explore = _explore_metrics(env, agent, info) if "parked" in info else {}
     return EpisodeRecord(
         agent=agent_name or getattr(agent, "name", "agent"),
         seed=seed,
@@ -126,7 +136,24 @@ def run_episode(
         localise_error_deg=localised[2] if localised else None,
         max_localise_error_m=worst,
         near_mover_s=round(near_mover, 6),
+        **explore,
     )
+
+
+def _explore_metrics(env: gym.Env, agent: Any, info: dict[str, Any]) -> dict[str, Any]:
+    """PicoExplore-v0's metrics of an ended episode (the map scored if the agent hands one over)."""
+    error = info["parking_error"]
+    map_belief = getattr(agent, "map_belief", None)
+    return {
+        "parked": bool(info["parked"]),
+        "explored": bool(info["explored"]),
+        "coverage": float(info["coverage"]),
+        "min_room_coverage": float(min(info["room_coverage"])),
+        "time_to_park_s": info["time_to_park"],
+        "parking_heading_deg": math.degrees(error["heading_rad"]) if error else None,
+        "parking_lateral_m": error["lateral_m"] if error else None,
+        "map_iou": float(env.unwrapped.belief_iou(map_belief())) if map_belief is not None else None,
+    }
 
 
 def _near_a_mover(pose: np.ndarray, poses: np.ndarray, movers: Any, within_m: float = 0.5) -> bool:
@@ -258,6 +285,15 @@ class Summary:
     max_localise_error_median_m: float = math.nan
     max_localise_error_max_m: float = math.nan
     near_mover_s_mean: float = 0.0
+    # PicoExplore-v0 (nan elsewhere)
+    parked_rate: float = math.nan
+    explored_and_parked_rate: float = math.nan
+    found_of_parked_rate: float = math.nan
+    rooms_covered_rate: float = math.nan  # episodes with every room >= 95 % seen
+    parking_heading_max_deg: float = math.nan
+    time_to_park_median_s: float = math.nan
+    map_iou_median: float = math.nan
+    map_iou_min: float = math.nan
 
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)
@@ -291,7 +327,26 @@ def summarize(records: list[EpisodeRecord]) -> Summary:
         max_localise_error_median_m=_median(r.max_localise_error_m for r in records),
         max_localise_error_max_m=_max(r.max_localise_error_m for r in records),
         near_mover_s_mean=float(np.mean([r.near_mover_s for r in records])),
+        **_explore_summary(records),
     )
+
+
+def _explore_summary(records: list[EpisodeRecord]) -> dict[str, float]:
+    if any(r.parked is None for r in records):
+        return {}
+    n = len(records)
+    parked = [r for r in records if r.parked]
+    ious = [r.map_iou for r in records if r.map_iou is not None]
+    return {
+        "parked_rate": len(parked) / n,
+        "explored_and_parked_rate": sum(bool(r.explored) for r in parked) / n,
+        "found_of_parked_rate": sum(r.success for r in parked) / len(parked) if parked else math.nan,
+        "rooms_covered_rate": sum((r.min_room_coverage or 0.0) >= 0.95 for r in records) / n,
+        "parking_heading_max_deg": _max(r.parking_heading_deg for r in parked),
+        "time_to_park_median_s": _median(r.time_to_park_s for r in parked),
+        "map_iou_median": float(np.median(ious)) if ious else math.nan,
+        "map_iou_min": float(min(ious)) if ious else math.nan,
+    }
 
 
 def _kinds(records: list[EpisodeRecord]) -> list[str]:
@@ -350,6 +405,16 @@ def format_summary(name: str, s: Summary) -> str:
         ]
     if not math.isnan(s.no_false_announcement_rate) and s.no_false_announcement_rate < 1.0:
         rows.append(("no false announcement", f"{100 * s.no_false_announcement_rate:.1f} % of episodes"))
+    if not math.isnan(s.parked_rate):
+        rows += [
+            ("explored and parked", f"{100 * s.explored_and_parked_rate:.1f} % (parked {100 * s.parked_rate:.1f} %)"),
+            ("object found, of the parked", f"{100 * s.found_of_parked_rate:.1f} %"),
+            ("every room >= 95 % seen", f"{100 * s.rooms_covered_rate:.1f} % of episodes"),
+            ("parking heading error, worst", f"{s.parking_heading_max_deg:.1f} deg"),
+            ("time to park, median", f"{s.time_to_park_median_s:.1f} s"),
+        ]
+        if not math.isnan(s.map_iou_median):
+            rows.append(("map IoU (free space) median / worst", f"{s.map_iou_median:.3f} / {s.map_iou_min:.3f}"))
     if s.near_mover_s_mean > 0.0:
         rows.append(("time within 0.5 m of a mover, mean", f"{s.near_mover_s_mean:.1f} s"))
     width = max(len(k) for k, _ in rows)

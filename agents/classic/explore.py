@@ -489,6 +489,7 @@ class ExploreAgent(Agent):
                 self._go(State.REVERSE)
                 self.stuck = 0
                 self.reversed_m = 0.0
+                self.reverse_log: list[tuple[float, FloatArray]] = []
                 return 0.0, 0.0, 0.0
             return float(v[0]), float(v[1]), heading_rate(error, self.motion)
         if self._replan_due():
@@ -503,12 +504,18 @@ class ExploreAgent(Agent):
         heading = math.atan2(normal[1], normal[0])
         moved = -delta.x  # odometry says the robot moved back this much
         self.reversed_m += max(moved, 0.0)
-        if self.previous_ranges is not None and moved > 0.003:
-            a, b = self.previous_ranges[self._front], ranges[self._front]
-            ok = (a < self.spec.lrf.range_max_m - 1e-6) & (b < self.spec.lrf.range_max_m - 1e-6)
-            seen = float(np.median(b[ok] - a[ok])) if ok.sum() > 10 else moved
-            self.stuck = self.stuck + 1 if seen < 0.35 * moved else 0
-        if self.stuck >= 3 or self.reversed_m > 1.0:
+        # Touched: over the last half second the odometry counted at least 2 cm back while the
+        # scan ahead moved less than a third of that, with the wall (as mapped) close behind.
+        self.reverse_log.append((self.reversed_m, ranges[self._front]))
+        if len(self.reverse_log) > 5:
+            then_m, then = self.reverse_log.pop(0)
+            counted = self.reversed_m - then_m
+            now = ranges[self._front]
+            ok = (then < self.spec.lrf.range_max_m - 1e-6) & (now < self.spec.lrf.range_max_m - 1e-6)
+            seen = float(np.median(now[ok] - then[ok])) if ok.sum() > 10 else counted
+            gap = float((np.array([self.pose.x, self.pose.y]) - point) @ normal) - 0.1
+            self.stuck = self.stuck + 1 if counted > 0.02 and seen < counted / 3 and gap < 0.2 else 0
+        if self.stuck >= 2 or self.reversed_m > 1.0:
             self._go(State.PARKED)
             return 0.0, 0.0, 0.0
         # Hold the heading and the line through the stand-off point while backing up.
