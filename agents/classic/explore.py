@@ -46,6 +46,7 @@ from pico_gym.agents.classic.astar import string_pull
 from pico_gym.agents.classic.localisation import scan_points
 from pico_gym.agents.classic.potential_field import (
     attract_and_repel,
+    footprint_distance,
     heading_rate,
     keep_in_view,
     motion_for,
@@ -291,8 +292,10 @@ class ExploreAgent(Agent):
         self.follow = dataclasses.replace(self.motion, repulsion_range=0.15, repulsion_gain=0.004)
         self.angles = np.ascontiguousarray(spec.beam_angles, dtype=np.float64)
         self._steps = lambda seconds: max(1, round(seconds / spec.dt_s))
-        front = np.abs(self.angles) < 0.35
-        self._front = np.flatnonzero(front)
+        # The beams straight ahead: backing up along the heading lengthens them by exactly the
+        # distance moved, whatever the wall they hit (beams to the side may hit walls parallel to
+        # the motion, which do not move at all).
+        self._front = np.flatnonzero(np.abs(self.angles) < 0.02)
 
     # --- episode ----------------------------------------------------------------------------
     def reset(self, obs: dict[str, np.ndarray], info: dict[str, Any] | None = None) -> None:
@@ -307,6 +310,8 @@ class ExploreAgent(Agent):
         self.plan_grid = Grid(self.grid.x0, self.grid.y0, cfg.plan_cell_m, (n // 2, n // 2))
         self.logodds = np.zeros((n, n), dtype=np.float64)
         self.checked = np.zeros((n // 2, n // 2), dtype=bool)
+        self.known = (n, 0, n, 0)  # rows and columns (fine cells) the beams may have reached
+        self._coarse_step = -1
         self.correction = Pose(0.0, 0.0, 0.0)  # agent frame <- odometry frame
         self.pose = odom
         self.start = odom
@@ -329,6 +334,7 @@ class ExploreAgent(Agent):
         self.evidence = np.zeros((n // 2, n // 2))
         self.object: FloatArray | None = None
         self.fits = 0
+        self.frontiers: list[FloatArray] = []
         if task is not None and getattr(task, "prior_map", None) is not None and self.phase == "find":
             # Started parked (options phase="find"): a prior map is given; the agent does not use
             # it beyond knowing that it is parked and the world is the one it maps from here.
@@ -384,11 +390,16 @@ class ExploreAgent(Agent):
             cfg.miss,
             cfg.clamp,
         )
+        reach = int(math.ceil(cfg.map_range_m / g.resolution)) + 2
+        r, c = int((self.pose.y - g.y0) / g.resolution), int((self.pose.x - g.x0) / g.resolution)
+        k0, k1, k2, k3 = self.known
+        n = self.logodds.shape[0]
+        self.known = (max(min(k0, r - reach), 0), min(max(k1, r + reach), n), max(min(k2, c - reach), 0), min(max(k3, c + reach), n))
         near = scan_points(ranges, self.angles, self.spec.lrf.range_max_m, len(ranges))
         near = near[np.hypot(near[:, 0], near[:, 1]) < 1.2]
         behind = self._mapped_near(0.7)
         blind = np.abs(np.arctan2(behind[:, 1], behind[:, 0])) > self.spec.lrf.angle_max_rad - 0.05
-        near = np.vstack([near, behind[blind]])  # the map covers the LRF's blind sector
+        near = np.vstack([near, self._wary(behind[blind])])  # the map covers the LRF's blind sector
         if self.stored is not None:
             self._look_for_object(ranges)
         vx, vy, w = getattr(self, f"_{self.state.value}")(ranges, near, odom, delta)
@@ -504,17 +515,17 @@ class ExploreAgent(Agent):
         heading = math.atan2(normal[1], normal[0])
         moved = -delta.x  # odometry says the robot moved back this much
         self.reversed_m += max(moved, 0.0)
-        # Touched: over the last half second the odometry counted at least 2 cm back while the
-        # scan ahead moved less than a third of that, with the wall (as mapped) close behind.
+        # Touched: over the last second the odometry counted at least 3 cm back while the scan
+        # straight ahead moved less than a third of that, with the wall (as mapped) close behind.
         self.reverse_log.append((self.reversed_m, ranges[self._front]))
-        if len(self.reverse_log) > 5:
+        if len(self.reverse_log) > self._steps(1.0):
             then_m, then = self.reverse_log.pop(0)
             counted = self.reversed_m - then_m
             now = ranges[self._front]
             ok = (then < self.spec.lrf.range_max_m - 1e-6) & (now < self.spec.lrf.range_max_m - 1e-6)
-            seen = float(np.median(now[ok] - then[ok])) if ok.sum() > 10 else counted
+            seen = float(np.median(now[ok] - then[ok])) if ok.sum() >= 3 else counted
             gap = float((np.array([self.pose.x, self.pose.y]) - point) @ normal) - 0.1
-            self.stuck = self.stuck + 1 if counted > 0.02 and seen < counted / 3 and gap < 0.2 else 0
+            self.stuck = self.stuck + 1 if counted > 0.03 and seen < counted / 3 and gap < 0.2 else 0
         if self.stuck >= 2 or self.reversed_m > 1.0:
             self._go(State.PARKED)
             return 0.0, 0.0, 0.0
@@ -540,7 +551,8 @@ class ExploreAgent(Agent):
             return 0.0, 0.0, 0.0
         if self._replan_due():
             free = self._free_mask()
-            if not self._plan_to_frontier(free & ~self.checked, within=free):
+            r0, r1, c0, c1 = self.view
+            if not self._plan_to_frontier(free & ~self.checked[r0:r1, c0:c1], within=free):
                 self.checked[:] = False  # looked everywhere: look again
                 return 0.0, 0.0, 0.8
         return self._follow(near)
@@ -577,6 +589,14 @@ class ExploreAgent(Agent):
             self.object = None
             self._go(State.SEARCH)
         return 0.0, 0.0, 0.0
+
+    def _wary(self, points: FloatArray, pull_m: float = 0.05) -> FloatArray:
+        """Mapped points pulled `pull_m` towards the footprint (never into it): a cell centre may
+        lie a few centimetres beyond the wall it stands for, and the pose may be off as much."""
+        if len(points) == 0:
+            return points
+        d, away = footprint_distance(points, self.motion)
+        return points - away * np.minimum(pull_m, np.maximum(d - 0.005, 0.0))[:, None]
 
     def _mapped_near(self, radius: float) -> FloatArray:
         """Occupied cells of the map within `radius` of the robot, in the robot frame."""
@@ -628,13 +648,22 @@ class ExploreAgent(Agent):
         return False
 
     def _coarse(self) -> tuple[np.ndarray, np.ndarray]:
-        """The planning grid: occupied (any fine cell occupied) and free (every known, mean free)."""
+        """The planning grid over the mapped area (`self.view`): occupied (any fine cell occupied)
+        and free (mean log-odds free); computed once per step."""
+        if self._coarse_step == self.steps:
+            return self._coarse_cache
         cfg = self.config
-        lo = self.logodds
-        n = lo.shape[0] // 2
-        blocks = lo.reshape(n, 2, n, 2)
+        r0, r1, c0, c1 = self.known  # fine cells
+        r0, c0 = max(r0 // 2 - 2, 0), max(c0 // 2 - 2, 0)
+        n = self.logodds.shape[0] // 2
+        r1, c1 = min(r1 // 2 + 3, n), min(c1 // 2 + 3, n)
+        p = self.plan_grid
+        self.view = (r0, r1, c0, c1)
+        self.view_grid = Grid(p.x0 + c0 * p.resolution, p.y0 + r0 * p.resolution, p.resolution, (r1 - r0, c1 - c0))
+        blocks = self.logodds[2 * r0 : 2 * r1, 2 * c0 : 2 * c1].reshape(r1 - r0, 2, c1 - c0, 2)
         occupied = (blocks > cfg.occupied).any(axis=(1, 3))
         free = (blocks.mean(axis=(1, 3)) < cfg.free) & ~occupied
+        self._coarse_step, self._coarse_cache = self.steps, (occupied, free)
         return occupied, free
 
     def _free_mask(self) -> np.ndarray:
@@ -655,7 +684,7 @@ class ExploreAgent(Agent):
         clearance[max(r - 1, 0) : r + 2, max(c - 1, 0) : c + 2] = np.maximum(
             clearance[max(r - 1, 0) : r + 2, max(c - 1, 0) : c + 2], cfg.inflate_m + 0.01
         )
-        costs = CostGrid.from_clearance(self.plan_grid, clearance, cfg.comfort_m, 4.0, cfg.inflate_m)
+        costs = CostGrid.from_clearance(self.view_grid, clearance, cfg.comfort_m, 4.0, cfg.inflate_m)
         return costs, clearance, free
 
     def _plan_to_frontier(self, unknown: np.ndarray, within: np.ndarray | None = None) -> bool:
@@ -673,7 +702,8 @@ class ExploreAgent(Agent):
         field = costs.field_from(np.array([here[0]]), np.array([here[1]]), np.zeros(1))
         frontier &= np.isfinite(field.distance)
         best, best_score = None, math.inf
-        p = self.plan_grid
+        p = self.view_grid
+        self.frontiers = []
         for cells in _components(frontier):
             if len(cells) < cfg.frontier_min_cells:
                 continue
@@ -682,6 +712,7 @@ class ExploreAgent(Agent):
             spot = np.array([p.x0 + (cells[k, 1] + 0.5) * p.resolution, p.y0 + (cells[k, 0] + 0.5) * p.resolution])
             if any(np.linalg.norm(spot - q) < 0.5 for q in self.given_up):
                 continue
+            self.frontiers.append(spot)
             score = float(d[k]) - 0.03 * min(len(cells), 60)
             if score < best_score:
                 best, best_score = (tuple(cells[k]), spot), score
@@ -693,7 +724,7 @@ class ExploreAgent(Agent):
         costs, _, _ = self._costs()
         here = self._plan_cell(np.array([self.pose.x, self.pose.y]))
         field = costs.field_from(np.array([here[0]]), np.array([here[1]]), np.zeros(1))
-        p = self.plan_grid
+        p = self.view_grid
         xs = p.x0 + (np.arange(p.shape[1]) + 0.5) * p.resolution
         ys = p.y0 + (np.arange(p.shape[0]) + 0.5) * p.resolution
         r0, c0 = self._plan_cell(goal)
@@ -733,7 +764,7 @@ class ExploreAgent(Agent):
         cells.reverse()
         # Straight lines only where they keep the comfort clearance: a pulled string would hug door
         # jambs at the inflation radius; through a narrow door the field's own cells are kept.
-        p = self.plan_grid
+        p = self.view_grid
         self._clearance = _distance_transform(~np.isfinite(costs.cost), p.resolution, 1.0)
         blocked = self._clearance < 0.75 * self.config.comfort_m
         pulled = string_pull(blocked, cells)
@@ -768,18 +799,54 @@ class ExploreAgent(Agent):
                 return 0.0, 0.0, 0.0
         target = self.path[0]
         travel = math.atan2(target[1] - here[1], target[0] - here[0])
-        r, c = self._plan_cell(here)
-        rt, ct = self._plan_cell(target)
-        tight = min(self._clearance[r, c], self._clearance[rt, ct]) < cfg.narrow_m - cfg.inflate_m
+        tight = self._tight_ahead(here, 1.2)
         v = attract_and_repel(near, self._to_robot(target), self.follow, speed=0.25 if tight else cfg.cruise_mps)
         heading = travel - math.pi / 2 if tight else travel
         error = wrap_angle(heading - self.pose.theta)
         if abs(error) > 1.0:
             v = v * 0.2  # turn first
-        return float(v[0]), float(v[1]), heading_rate(error, self.motion)
+        return float(v[0]), float(v[1]), self._safe_turn(near, heading_rate(error, self.motion))
+
+    def _safe_turn(self, near: FloatArray, w: float) -> float:
+        """The turn rate, cut so that turning for 0.5 s keeps every point 3 cm off the footprint
+        (the PICO is twice as wide as deep: turning in place next to a wall swings a corner into
+        it, a motion the safety filter's slack lets creep)."""
+        if len(near) == 0 or w == 0.0:
+            return w
+        close = near[np.hypot(near[:, 0], near[:, 1]) < 0.5]
+        if len(close) == 0:
+            return w
+        for scale in (1.0, 0.5, 0.25, 0.0):
+            a = -w * scale * 0.5
+            c, s = math.cos(a), math.sin(a)
+            turned = close @ np.array([[c, -s], [s, c]]).T
+            d_now = footprint_distance(close, self.motion)[0]
+            d_after = footprint_distance(turned, self.motion)[0]
+            if np.all((d_after >= 0.03) | (d_after >= d_now)):
+                return w * scale
+        return 0.0
+
+    def _tight_ahead(self, here: FloatArray, length_m: float) -> bool:
+        """Whether the path's next `length_m` passes anywhere narrower than `narrow_m` (so the
+        robot turns sideways before it gets there, not in the door)."""
+        cfg = self.config
+        points = [here, *self.path]
+        left = length_m
+        for a, b in zip(points[:-1], points[1:], strict=False):
+            span = float(np.linalg.norm(b - a))
+            for t in np.linspace(0.0, min(span, left), max(2, int(min(span, left) / 0.05) + 1)):
+                q = a + (b - a) * (t / span if span > 1e-9 else 0.0)
+                r, c = self._plan_cell(q)
+                if self._clearance[r, c] < cfg.narrow_m - cfg.inflate_m:
+                    return True
+            left -= span
+            if left <= 0:
+                break
+        return False
 
     def _plan_cell(self, p: FloatArray) -> tuple[int, int]:
-        g = self.plan_grid
+        """A point's cell in the planning view (clipped to it)."""
+        g = self.view_grid
         c = int(np.clip((p[0] - g.x0) / g.resolution, 0, g.shape[1] - 1))
         r = int(np.clip((p[1] - g.y0) / g.resolution, 0, g.shape[0] - 1))
         return r, c
@@ -797,8 +864,12 @@ class ExploreAgent(Agent):
         pts = np.column_stack([g.x0 + (cols[take] + 0.5) * g.resolution, g.y0 + (rows[take] + 0.5) * g.resolution])
         here = np.array([self.pose.x, self.pose.y])
         path = np.array([here, *self.path]) if self.path else np.zeros((0, 2))
+        crosses = [
+            (f[0] - d, f[1] - d, f[0] + d, f[1] + d) for f in self.frontiers for d in (0.1,)
+        ] + [(f[0] - d, f[1] + d, f[0] + d, f[1] - d) for f in self.frontiers for d in (0.1,)]
         return Overlay(
             frame="odom",
+            segments=np.array(crosses, dtype=float).reshape(-1, 4),
             points=pts.reshape(-1, 2),
             path=path.reshape(-1, 2),
             target=self.goal if self.object is None else self.object,
