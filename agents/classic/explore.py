@@ -110,7 +110,7 @@ class ExploreAgentConfig:
     free: float = -1.0
     inflate_m: float = 0.17
     comfort_m: float = 0.4
-    narrow_m: float = 0.3
+    narrow_m: float = 0.33
     cruise_mps: float = 0.4
     frontier_min_cells: int = 5
     replan_s: float = 1.0
@@ -335,6 +335,7 @@ class ExploreAgent(Agent):
         self.object: FloatArray | None = None
         self.fits = 0
         self.frontiers: list[FloatArray] = []
+        self.backoff_until = 0
         if task is not None and getattr(task, "prior_map", None) is not None and self.phase == "find":
             # Started parked (options phase="find"): a prior map is given; the agent does not use
             # it beyond knowing that it is parked and the world is the one it maps from here.
@@ -489,7 +490,7 @@ class ExploreAgent(Agent):
         standoff = foot + normal * cfg.park_standoff_m
         here = np.array([self.pose.x, self.pose.y])
         heading = math.atan2(normal[1], normal[0])
-        if np.linalg.norm(standoff - here) < 0.25:
+        if np.linalg.norm(standoff - here) < 0.4:  # (the path ends within 0.2 m of its goal cell)
             # Servo onto the stand-off pose, then reverse.
             error = wrap_angle(heading - self.pose.theta)
             v = self._to_robot(standoff) * 1.5
@@ -677,6 +678,7 @@ class ExploreAgent(Agent):
         cfg = self.config
         occupied, free = self._coarse()
         clearance = _distance_transform(occupied, cfg.plan_cell_m, 1.0)
+        self._occupied_clearance = clearance
         clearance = np.where(free, clearance, 0.0)  # unknown cells are not for driving through
         here = self._plan_cell(np.array([self.pose.x, self.pose.y]))
         r, c = here
@@ -765,8 +767,8 @@ class ExploreAgent(Agent):
         # Straight lines only where they keep the comfort clearance: a pulled string would hug door
         # jambs at the inflation radius; through a narrow door the field's own cells are kept.
         p = self.view_grid
-        self._clearance = _distance_transform(~np.isfinite(costs.cost), p.resolution, 1.0)
-        blocked = self._clearance < 0.75 * self.config.comfort_m
+        self._clearance = self._occupied_clearance
+        blocked = ~np.isfinite(costs.cost) | (self._clearance < 0.75 * self.config.comfort_m)
         pulled = string_pull(blocked, cells)
         self.path = [np.array([p.x0 + (cc + 0.5) * p.resolution, p.y0 + (rr + 0.5) * p.resolution]) for rr, cc in pulled[1:]]
         if not self.path:
@@ -793,7 +795,12 @@ class ExploreAgent(Agent):
                 self.given_up.append(self.goal.copy())
                 self.goal = None
                 self.path = []
+                self.backoff_until = self.steps + self._steps(1.5)
                 return 0.0, 0.0, 0.0
+        if self.steps < self.backoff_until:
+            # Away from what is nearest (the way it came, as the LRF sees it), then plan anew.
+            v = attract_and_repel(near, np.zeros(2), dataclasses.replace(self.follow, repulsion_range=0.4, repulsion_gain=0.02), speed=0.2)
+            return float(v[0]), float(v[1]), 0.0
             if remaining < 0.2 and len(self.path) <= 1:
                 self.path = []  # reached: plan anew
                 return 0.0, 0.0, 0.0
@@ -837,7 +844,7 @@ class ExploreAgent(Agent):
             for t in np.linspace(0.0, min(span, left), max(2, int(min(span, left) / 0.05) + 1)):
                 q = a + (b - a) * (t / span if span > 1e-9 else 0.0)
                 r, c = self._plan_cell(q)
-                if self._clearance[r, c] < cfg.narrow_m - cfg.inflate_m:
+                if self._clearance[r, c] < cfg.narrow_m:
                     return True
             left -= span
             if left <= 0:
