@@ -52,7 +52,6 @@ from pico_gym.agents.classic.potential_field import (
     motion_for,
     safety_filter,
 )
-from pico_gym.agents.classic.world_model import rigid_fit
 from pico_gym.jit import njit
 from pico_gym.overlay import Overlay
 from pico_gym.tasks.explore import OccupancyBelief
@@ -108,7 +107,7 @@ class ExploreAgentConfig:
     clamp: float = 6.0
     occupied: float = 1.0
     free: float = -1.0
-    inflate_m: float = 0.17
+    inflate_m: float = 0.13
     comfort_m: float = 0.4
     narrow_m: float = 0.33
     cruise_mps: float = 0.4
@@ -215,6 +214,55 @@ def _pairs(
                     out[i, 1] = y0 + (qq + 0.5) * res
         ok[i] = best < math.inf
     return ok, out
+
+
+@njit
+def _best_pose(
+    points: np.ndarray,
+    logodds: np.ndarray,
+    x0: float,
+    y0: float,
+    res: float,
+    px: float,
+    py: float,
+    theta: float,
+    span_xy: float,
+    step_xy: float,
+    span_th: float,
+    step_th: float,
+    cap: float,
+) -> tuple[float, float, float, float, float]:
+    """Correlative scan matching: of the poses within the spans around (px, py, theta), the one
+    whose end points land on the most occupied map (each scores its cell's log-odds, clipped to
+    [0, cap]); returns it with its score and the score of the centre pose."""
+    rows, cols = logodds.shape
+    n_xy = int(round(span_xy / step_xy))
+    n_th = int(round(span_th / step_th))
+    best = (-1.0, px, py, theta)
+    centre = 0.0
+    for it in range(-n_th, n_th + 1):
+        th = theta + it * step_th
+        c, s = math.cos(th), math.sin(th)
+        for ix in range(-n_xy, n_xy + 1):
+            for iy in range(-n_xy, n_xy + 1):
+                x, y = px + ix * step_xy, py + iy * step_xy
+                score = 0.0
+                for k in range(points.shape[0]):
+                    wx = x + c * points[k, 0] - s * points[k, 1]
+                    wy = y + s * points[k, 0] + c * points[k, 1]
+                    col = int(math.floor((wx - x0) / res))
+                    row = int(math.floor((wy - y0) / res))
+                    if 0 <= row < rows and 0 <= col < cols:
+                        v = logodds[row, col]
+                        if v > 0.0:
+                            score += min(v, cap)
+                # Ties go to the pose nearest the prediction.
+                penalty = 1e-6 * (abs(ix) + abs(iy) + abs(it))
+                if score - penalty > best[0]:
+                    best = (score - penalty, x, y, th)
+                if ix == 0 and iy == 0 and it == 0:
+                    centre = score
+    return best[1], best[2], best[3], best[0], centre
 
 
 @njit
@@ -407,12 +455,15 @@ class ExploreAgent(Agent):
         if self.state is not State.REVERSE:
             v = keep_in_view(np.array([vx, vy]), self.motion)
             vx, vy, w = safety_filter(near, (float(v[0]), float(v[1]), float(w)), self.motion)
+            w = self._safe_turn(near, w)
         self.previous_odom = odom
         self.previous_ranges = ranges
         return np.array([vx, vy, w], dtype=np.float32)
 
     def _align(self, ranges: FloatArray) -> None:
-        """ICP of the scan against the occupancy grid, from the odometry prediction."""
+        """Correlative scan-to-map matching around the odometry prediction (within 3 cm and
+        0.9 deg: odometry drifts far less than that in a step, so a larger jump would be a bad
+        match, e.g. a room seen for the first time)."""
         if self.steps < 3:
             return
         cfg = self.config
@@ -420,19 +471,13 @@ class ExploreAgent(Agent):
         if len(points) < 40:
             return
         g = self.grid
-        pose = self.pose
-        for _ in range(3):
-            c, s = math.cos(pose.theta), math.sin(pose.theta)
-            world = np.column_stack([pose.x + c * points[:, 0] - s * points[:, 1], pose.y + s * points[:, 0] + c * points[:, 1]])
-            ok, target = _pairs(world, self.logodds, g.x0, g.y0, g.resolution, 2, cfg.occupied + 1.0)
-            if ok.sum() < 0.5 * len(points):
-                return
-            step = rigid_fit(world[ok], target[ok])
-            if math.hypot(step.x, step.y) > 0.08 or abs(step.theta) > 0.05:
-                return  # a jump this large is a bad match, not drift
-            pose = compose(step, pose)
-        self.pose = pose
-        self.fits += 1
+        p = self.pose
+        x, y, th, score, centre = _best_pose(
+            points, self.logodds, g.x0, g.y0, g.resolution, p.x, p.y, p.theta, 0.03, 0.01, 0.016, 0.002, 3.0
+        )
+        if score > 1.02 * centre + 1.0:
+            self.pose = Pose(float(x), float(y), float(th))
+            self.fits += 1
 
     # --- states -------------------------------------------------------------------------------
     def _look(self, ranges: FloatArray, near: FloatArray, odom: Pose, delta: Pose) -> tuple[float, float, float]:
@@ -457,6 +502,12 @@ class ExploreAgent(Agent):
         keep = np.abs(np.arctan2(pts[:, 1], pts[:, 0])) < 0.45
         pts = pts[keep]
         if len(pts) < 20:
+            return
+        # The wall faces the robot within about 15 deg: keep the points near the depth straight
+        # ahead (the side walls' points, nearer, would tilt the line).
+        ahead = float(np.median(pts[np.abs(pts[:, 1]) < 0.05, 0])) if (np.abs(pts[:, 1]) < 0.05).sum() >= 3 else float(pts[:, 0].max())
+        pts = pts[np.abs(pts[:, 0] - ahead) < 0.15 + 0.3 * np.abs(pts[:, 1])]
+        if len(pts) < 15:
             return
         c, s = math.cos(self.pose.theta), math.sin(self.pose.theta)
         world = np.column_stack([self.pose.x + c * pts[:, 0] - s * pts[:, 1], self.pose.y + s * pts[:, 0] + c * pts[:, 1]])
@@ -539,11 +590,17 @@ class ExploreAgent(Agent):
         return -cfg.reverse_mps, float(vy), heading_rate(wrap_angle(heading - self.pose.theta), self.motion)
 
     def _parked(self, ranges: FloatArray, near: FloatArray, odom: Pose, delta: Pose) -> tuple[float, float, float]:
-        if self.state_steps >= self._steps(1.5):
+        if self.state_steps == self._steps(1.5):
             self.stored = self.logodds.copy()
             self.checked[:] = False
             self.evidence[:] = 0.0
-            self._go(State.SEARCH)
+        if self.state_steps > self._steps(1.5):
+            # Off the wall before anything turns (a turn against it swings a corner into it).
+            point, normal = self.wall
+            gap = float((np.array([self.pose.x, self.pose.y]) - point) @ normal) - 0.1
+            if gap > 0.25 or self.state_steps > self._steps(6.0):
+                self._go(State.SEARCH)
+            return 0.1, 0.0, 0.0
         return 0.0, 0.0, 0.0
 
     def _search(self, ranges: FloatArray, near: FloatArray, odom: Pose, delta: Pose) -> tuple[float, float, float]:
@@ -591,7 +648,7 @@ class ExploreAgent(Agent):
             self._go(State.SEARCH)
         return 0.0, 0.0, 0.0
 
-    def _wary(self, points: FloatArray, pull_m: float = 0.05) -> FloatArray:
+    def _wary(self, points: FloatArray, pull_m: float = 0.08) -> FloatArray:
         """Mapped points pulled `pull_m` towards the footprint (never into it): a cell centre may
         lie a few centimetres beyond the wall it stands for, and the pose may be off as much."""
         if len(points) == 0:
@@ -807,7 +864,10 @@ class ExploreAgent(Agent):
         target = self.path[0]
         travel = math.atan2(target[1] - here[1], target[0] - here[0])
         tight = self._tight_ahead(here, 1.2)
-        v = attract_and_repel(near, self._to_robot(target), self.follow, speed=0.25 if tight else cfg.cruise_mps)
+        # Slower the closer anything is (the map behind the robot may be a few centimetres off).
+        closest = float(footprint_distance(near, self.motion)[0].min()) if len(near) else 1.0
+        speed = min(0.2 if tight else cfg.cruise_mps, max(0.08, 0.08 + 1.5 * (closest - 0.05)))
+        v = attract_and_repel(near, self._to_robot(target), self.follow, speed=speed)
         heading = travel - math.pi / 2 if tight else travel
         error = wrap_angle(heading - self.pose.theta)
         if abs(error) > 1.0:
