@@ -127,6 +127,7 @@ class ExploreAgentConfig:
 @njit
 def _integrate(
     logodds: np.ndarray,
+    hits: np.ndarray,
     checked: np.ndarray,
     x0: float,
     y0: float,
@@ -143,8 +144,10 @@ def _integrate(
     miss: float,
     clamp: float,
 ) -> None:
-    """Log-odds update along the beams (a grid walk per beam), and `checked` (2x coarser) marks
-    every cell a beam passed through."""
+    """Log-odds update along the beams (a grid walk per beam), `hits` counts the end points per
+    cell (never cleared: thin things such as a door jamb's end are erased from the log-odds by
+    beams grazing past, not from this), and `checked` (2x coarser) marks every cell a beam passed
+    through."""
     rows, cols = logodds.shape
     fx, fy = (px - x0) / res, (py - y0) / res
     c0, q0 = int(math.floor(fx)), int(math.floor(fy))
@@ -186,6 +189,8 @@ def _integrate(
                 break
         if hit_end and 0 <= ec < cols and 0 <= eq < rows:
             logodds[eq, ec] = min(logodds[eq, ec] + hit + miss, clamp)
+            if hits[eq, ec] < 60000:
+                hits[eq, ec] += 1
             checked[eq // 2, ec // 2] = True
 
 
@@ -357,6 +362,7 @@ class ExploreAgent(Agent):
         self.grid = Grid(odom.x - 0.5 * cfg.size_m, odom.y - 0.5 * cfg.size_m, cfg.cell_m, (n, n))
         self.plan_grid = Grid(self.grid.x0, self.grid.y0, cfg.plan_cell_m, (n // 2, n // 2))
         self.logodds = np.zeros((n, n), dtype=np.float64)
+        self.hits = np.zeros((n, n), dtype=np.uint16)
         self.checked = np.zeros((n // 2, n // 2), dtype=bool)
         self.known = (n, 0, n, 0)  # rows and columns (fine cells) the beams may have reached
         self._coarse_step = -1
@@ -423,6 +429,7 @@ class ExploreAgent(Agent):
         g = self.grid
         _integrate(
             self.logodds,
+            self.hits,
             self.checked,
             g.x0,
             g.y0,
@@ -481,9 +488,11 @@ class ExploreAgent(Agent):
 
     # --- states -------------------------------------------------------------------------------
     def _look(self, ranges: FloatArray, near: FloatArray, odom: Pose, delta: Pose) -> tuple[float, float, float]:
+        if self.phase == "find" and self.state_steps <= self._steps(3.0):
+            return 0.1, 0.0, 0.0  # started parked: off the wall before turning (0.3 m)
         self.turned += abs(delta.theta)
         behind = abs(wrap_angle(self.pose.theta - self.start.theta - math.pi))
-        if self.wall is None and behind < 0.1:
+        if self.wall is None and behind < 0.1 and self.phase != "find":
             self._fit_wall(ranges)
         if self.turned >= 2 * math.pi + 0.2:
             if self.wall is None:  # nothing seen behind: assume the wall 0.6 m behind the start
@@ -608,12 +617,41 @@ class ExploreAgent(Agent):
             self._go(State.APPROACH)
             return 0.0, 0.0, 0.0
         if self._replan_due():
-            free = self._free_mask()
+            self._isolated_object()
+            if self.object is not None:
+                return 0.0, 0.0, 0.0
+            occupied, free = self._coarse()
             r0, r1, c0, c1 = self.view
-            if not self._plan_to_frontier(free & ~self.checked[r0:r1, c0:c1], within=free):
+            # Not looked at since parking, or never seen (a start in "find" maps as it goes).
+            unseen = (free & ~self.checked[r0:r1, c0:c1]) | (~occupied & ~free)
+            if not self._plan_to_frontier(unseen):
                 self.checked[:] = False  # looked everywhere: look again
                 return 0.0, 0.0, 0.8
         return self._follow(near)
+
+    def _isolated_object(self) -> None:
+        """Something small standing free: a cluster of occupied planning cells, 0.1-0.8 m across,
+        with free space all round it (0.3 m), is the object, whether or not the stored map
+        knew the place (a start in "find" has no stored map of the far rooms)."""
+        occupied, free = self._coarse()
+        ring = 3
+        p = self.view_grid
+        for cells in _components(occupied):
+            span = (cells.max(axis=0) - cells.min(axis=0) + 1) * p.resolution
+            if len(cells) < 3 or span.max() > 0.8:
+                continue
+            r0, c0 = cells.min(axis=0) - ring
+            r1, c1 = cells.max(axis=0) + ring + 1
+            if r0 < 0 or c0 < 0 or r1 > occupied.shape[0] or c1 > occupied.shape[1]:
+                continue
+            window = occupied[r0:r1, c0:c1].copy()
+            window[cells[:, 0] - r0, cells[:, 1] - c0] = False
+            if window.any() or free[r0:r1, c0:c1].sum() < 0.6 * window.size:
+                continue
+            spot = np.array([p.x0 + (cells[:, 1].mean() + 0.5) * p.resolution, p.y0 + (cells[:, 0].mean() + 0.5) * p.resolution])
+            if all(np.linalg.norm(spot - q) > 0.5 for q in self.given_up):
+                self.object = spot
+                return
 
     def _approach(self, ranges: FloatArray, near: FloatArray, odom: Pose, delta: Pose) -> tuple[float, float, float]:
         cfg = self.config
@@ -657,12 +695,13 @@ class ExploreAgent(Agent):
         return points - away * np.minimum(pull_m, np.maximum(d - 0.005, 0.0))[:, None]
 
     def _mapped_near(self, radius: float) -> FloatArray:
-        """Occupied cells of the map within `radius` of the robot, in the robot frame."""
+        """Cells within `radius` of the robot where the LRF has hit something at least twice, in
+        the robot frame (for the blind sector: what was seen there, even if since grazed)."""
         g = self.grid
         r, c = int((self.pose.y - g.y0) / g.resolution), int((self.pose.x - g.x0) / g.resolution)
         k = int(math.ceil(radius / g.resolution))
-        window = self.logodds[max(r - k, 0) : r + k + 1, max(c - k, 0) : c + k + 1]
-        rows, cols = np.nonzero(window > self.config.occupied)
+        window = self.hits[max(r - k, 0) : r + k + 1, max(c - k, 0) : c + k + 1]
+        rows, cols = np.nonzero(window >= 2)
         xs = g.x0 + (cols + max(c - k, 0) + 0.5) * g.resolution - self.pose.x
         ys = g.y0 + (rows + max(r - k, 0) + 0.5) * g.resolution - self.pose.y
         cs, sn = math.cos(self.pose.theta), math.sin(self.pose.theta)

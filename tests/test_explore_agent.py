@@ -1,0 +1,117 @@
+"""The classic explore agent: public information only, its map, parking by touch, finding."""
+
+from __future__ import annotations
+
+import math
+
+import gymnasium as gym
+import numpy as np
+
+import pico_gym  # noqa: F401
+from pico_gym.agents import make_agent
+from pico_gym.agents.classic.explore import ExploreAgent, State, _distance_transform
+from pico_gym.tasks.explore import OccupancyBelief
+from pico_gym.world.geometry import compose, point_clearance
+
+
+def explore_env(**kwargs: object) -> gym.Env:
+    return gym.make("PicoExplore-v0", **kwargs)
+
+
+def test_make_agent_gives_the_explore_agent_and_it_acts_in_the_action_space() -> None:
+    env = explore_env()
+    agent = make_agent("classic", env)
+    assert isinstance(agent, ExploreAgent)
+    assert not any(isinstance(v, gym.Env) for v in vars(agent).values())
+    obs, info = env.reset(seed=0)
+    agent.reset(obs, {"task": info["task"]})  # nothing of the building: the rules only
+    for _ in range(30):
+        action = agent.act(obs)
+        assert env.action_space.contains(action)
+        obs, *_ = env.step(action)
+
+
+def test_the_map_after_looking_around_matches_the_building() -> None:
+    env = explore_env()
+    agent = make_agent("classic", env)
+    obs, info = env.reset(seed=3)
+    agent.reset(obs, {"task": info["task"]})
+    while agent.state is State.LOOK:
+        obs, *_ = env.step(agent.act(obs))
+    belief = agent.map_belief()
+    assert isinstance(belief, OccupancyBelief)
+    assert env.unwrapped.belief_iou(belief) > 0.2
+    # Cells it calls free are free in truth, and cells it calls occupied lie on walls (within
+    # 10 cm of the true geometry): the pose is good after a turn in place.
+    g = agent.grid
+    frame = env.unwrapped.map_from_odom
+    c, s = math.cos(frame.theta), math.sin(frame.theta)
+    building = env.unwrapped.episode.extra["building"]
+    walls = env.unwrapped.scene.static_solid
+    for value, check in ((0, "free"), (1, "wall")):
+        rows, cols = np.nonzero(belief.cells == value)
+        xs, ys = g.x0 + (cols + 0.5) * g.resolution, g.y0 + (rows + 0.5) * g.resolution
+        mx, my = frame.x + c * xs - s * ys, frame.y + s * xs + c * ys
+        if check == "free":
+            b = building.grid
+            r = np.floor((my - b.y0) / b.resolution).astype(int)
+            k = np.floor((mx - b.x0) / b.resolution).astype(int)
+            ok = building.region[r, k] >= -1  # inside the building's free area
+            # (cells of the free area's rim, within half a coverage cell of a wall, count too)
+            rim = np.array([point_clearance(float(x), float(y), walls) < 0.08 for x, y in zip(mx[~ok], my[~ok], strict=True)])
+            assert len(ok) > 1000 and (ok.sum() + rim.sum()) / len(ok) > 0.97
+        else:
+            near = [point_clearance(float(x), float(y), walls) < 0.1 for x, y in zip(mx, my, strict=True)]
+            assert len(near) > 100 and np.mean(near) > 0.95
+
+
+def test_it_parks_backwards_by_touch_without_a_bump() -> None:
+    env = explore_env()
+    agent = make_agent("classic", env)
+    obs, info = env.reset(seed=1, options={"start_pose": (0.7, 0.6, 0.1)})
+    agent.reset(obs, {"task": info["task"]})
+    while agent.state is State.LOOK:
+        obs, *_ = env.step(agent.act(obs))
+    agent._go(State.PARK)  # skip the exploration
+    for _ in range(400):
+        obs, _, terminated, _, info = env.step(agent.act(obs))
+        if info["parked"] or terminated:
+            break
+    assert info["parked"] and info["bumps"] == 0
+    assert info["parking_error"]["heading_rad"] < math.radians(10)
+    assert agent.state in (State.REVERSE, State.PARKED)
+
+
+def test_it_finds_the_object_from_a_parked_start() -> None:
+    env = explore_env()
+    agent = make_agent("classic", env)
+    obs, info = env.reset(seed=5, options={"phase": "find"})
+    agent.reset(obs, {"task": info["task"]})
+    for _ in range(3000):
+        obs, _, terminated, truncated, info = env.step(agent.act(obs))
+        if terminated or truncated:
+            break
+    assert info["termination_reason"] == "done" and info["bumps"] == 0
+
+
+def test_the_pose_estimate_stays_within_10_cm_while_exploring() -> None:
+    env = explore_env()
+    agent = make_agent("classic", env)
+    obs, info = env.reset(seed=2)
+    agent.reset(obs, {"task": info["task"]})
+    worst = 0.0
+    for _ in range(600):
+        action = agent.act(obs)
+        truth = compose(env.unwrapped._odom_from_map, env.unwrapped.pose)  # before the step: as the agent's
+        worst = max(worst, math.hypot(agent.pose.x - truth.x, agent.pose.y - truth.y))
+        obs, _, terminated, truncated, _ = env.step(action)
+        if terminated or truncated:
+            break
+    assert worst < 0.1
+
+
+def test_distance_transform_is_the_chamfer_distance() -> None:
+    blocked = np.zeros((5, 5), dtype=bool)
+    blocked[2, 2] = True
+    d = _distance_transform(blocked, 0.1, 1.0)
+    assert d[2, 2] == 0.0 and d[2, 3] == 0.1 and abs(d[3, 3] - 0.1 * math.sqrt(2)) < 1e-12 and d[2, 4] == 0.2
