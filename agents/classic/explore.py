@@ -403,7 +403,8 @@ class ExploreAgent(Agent):
         """The agent's occupancy grid in its odometry frame at reset (for `env.belief_iou`)."""
         cfg = self.config
         cells = np.full(self.logodds.shape, -1, dtype=np.int8)
-        cells[self.logodds < cfg.free] = 0
+        # Free where beams passed more often than they ended (planning asks for more evidence).
+        cells[self.logodds < -0.5 * cfg.miss] = 0
         cells[self.logodds > cfg.occupied] = 1
         return OccupancyBelief(cells, (self.grid.x0, self.grid.y0), self.grid.resolution)
 
@@ -463,6 +464,7 @@ class ExploreAgent(Agent):
             v = keep_in_view(np.array([vx, vy]), self.motion)
             vx, vy, w = safety_filter(near, (float(v[0]), float(v[1]), float(w)), self.motion)
             w = self._safe_turn(near, w)
+            vx, vy, w = self._no_creep(near, vx, vy, w)
         self.previous_odom = odom
         self.previous_ranges = ranges
         return np.array([vx, vy, w], dtype=np.float32)
@@ -494,6 +496,10 @@ class ExploreAgent(Agent):
         behind = abs(wrap_angle(self.pose.theta - self.start.theta - math.pi))
         if self.wall is None and behind < 0.1 and self.phase != "find":
             self._fit_wall(ranges)
+        if self._safe_turn(near, 1.0) < 0.5:
+            # Too close to something to turn: away from it first (the start may be near a wall).
+            v = attract_and_repel(near, np.zeros(2), dataclasses.replace(self.follow, repulsion_range=0.4, repulsion_gain=0.02), speed=0.1)
+            return float(v[0]), float(v[1]), 0.0
         if self.turned >= 2 * math.pi + 0.2:
             if self.wall is None:  # nothing seen behind: assume the wall 0.6 m behind the start
                 back = np.array([math.cos(self.start.theta), math.sin(self.start.theta)])
@@ -909,12 +915,36 @@ class ExploreAgent(Agent):
         v = attract_and_repel(near, self._to_robot(target), self.follow, speed=speed)
         heading = travel - math.pi / 2 if tight else travel
         error = wrap_angle(heading - self.pose.theta)
+        r, c = self._plan_cell(here)
+        if self._clearance[r, c] < cfg.narrow_m:
+            # In the doorway itself: no turning (the jamb's far corners have not been seen), the
+            # holonomic base translates through at the heading it came in with.
+            return float(v[0]), float(v[1]), 0.0
         if abs(error) > 1.0:
             v = v * 0.2  # turn first
         return float(v[0]), float(v[1]), self._safe_turn(near, heading_rate(error, self.motion))
 
+    def _no_creep(self, near: FloatArray, vx: float, vy: float, w: float) -> tuple[float, float, float]:
+        """Stop a command that brings anything within 2.5 cm of the footprint closer still (the
+        shared safety filter lets a point already inside its margin come a little closer per
+        step, which, step after step, is a slow drive into the wall)."""
+        if len(near) == 0:
+            return vx, vy, w
+        d_now = footprint_distance(near, self.motion)[0]
+        close = d_now < 0.05
+        if not close.any():
+            return vx, vy, w
+        pts = near[close]
+        a = -w * 0.3
+        c, s = math.cos(a), math.sin(a)
+        moved = (pts - np.array([vx, vy]) * 0.3) @ np.array([[c, -s], [s, c]]).T
+        d_after = footprint_distance(moved, self.motion)[0]
+        if np.any((d_after < 0.025) & (d_after < d_now[close] - 1e-4)):
+            return 0.0, 0.0, 0.0
+        return vx, vy, w
+
     def _safe_turn(self, near: FloatArray, w: float) -> float:
-        """The turn rate, cut so that turning for 0.5 s keeps every point 3 cm off the footprint
+        """The turn rate, cut so that turning for 0.5 s keeps every point 5 cm off the footprint
         (the PICO is twice as wide as deep: turning in place next to a wall swings a corner into
         it, a motion the safety filter's slack lets creep)."""
         if len(near) == 0 or w == 0.0:
@@ -928,7 +958,7 @@ class ExploreAgent(Agent):
             turned = close @ np.array([[c, -s], [s, c]]).T
             d_now = footprint_distance(close, self.motion)[0]
             d_after = footprint_distance(turned, self.motion)[0]
-            if np.all((d_after >= 0.03) | (d_after >= d_now)):
+            if np.all((d_after >= 0.05) | (d_after >= d_now)):
                 return w * scale
         return 0.0
 
