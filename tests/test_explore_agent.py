@@ -56,7 +56,9 @@ def test_the_map_after_looking_around_matches_the_building() -> None:
             b = building.grid
             r = np.floor((my - b.y0) / b.resolution).astype(int)
             k = np.floor((mx - b.x0) / b.resolution).astype(int)
-            ok = building.region[r, k] >= -1  # inside the building's free area
+            inside = (r >= 0) & (r < b.shape[0]) & (k >= 0) & (k < b.shape[1])
+            ok = np.zeros(len(r), dtype=bool)
+            ok[inside] = building.region[r[inside], k[inside]] >= -1  # inside the building's free area
             # (cells of the free area's rim, within half a coverage cell of a wall, count too)
             rim = np.array([point_clearance(float(x), float(y), walls) < 0.08 for x, y in zip(mx[~ok], my[~ok], strict=True)])
             assert len(ok) > 1000 and (ok.sum() + rim.sum()) / len(ok) > 0.97
