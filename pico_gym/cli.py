@@ -148,8 +148,21 @@ def _reset_rate(env_id: str, seed: int, repeats: int, **kwargs: object) -> tuple
     return median, 1e3 * statistics.median(times)
 
 
-def bench_hospital(args: argparse.Namespace) -> int:
-    """PicoHospital-v0's rows, with PicoEscape-v0's default row measured in the same run as the reference."""
+HOSPITAL_ROWS = [
+    ("PicoHospital-v0, hospital_2019, 2 movers, 2 boxes, 0-1 closed doors", {"map": "hospital_2019", "n_movers": (2, 2), "n_boxes": (2, 2)}),
+    ("PicoHospital-v0, hospital_2019, defaults", {"map": "hospital_2019"}),
+    ("PicoHospital-v0, hospital_2021 (its 2 movers, 0-2 boxes)", {"map": "hospital_2021"}),
+    ("PicoHospital-v0, generated hospitals, defaults", {}),
+]
+EXPLORE_ROWS = [
+    ("PicoExplore-v0, generated 2018 hospitals, defaults", {}),
+    ("PicoExplore-v0, generated 2018 hospitals, collision=continue", {"collision": "continue"}),
+]
+
+
+def bench_hospital(args: argparse.Namespace, env_id: str = "PicoHospital-v0") -> int:
+    """A task env's rows (PicoHospital-v0, PicoExplore-v0), with PicoEscape-v0's default row measured
+    in the same run as the reference."""
     import gymnasium as gym
 
     import pico_gym  # noqa: F401
@@ -162,16 +175,8 @@ def bench_hospital(args: argparse.Namespace) -> int:
         "machine hits all rows alike); random actions, one process; steps/s: median over the rounds; ratio: median "
         "of each round's ratio to escape's row in that round\n"
     )
-    busy = {"n_movers": (2, 2), "n_boxes": (2, 2)}
-    rows = [
-        ("PicoHospital-v0, hospital_2019, 2 movers, 2 boxes, 0-1 closed doors", {"map": "hospital_2019", **busy}),
-        ("PicoHospital-v0, hospital_2019, defaults", {"map": "hospital_2019"}),
-        ("PicoHospital-v0, hospital_2021 (its 2 movers, 0-2 boxes)", {"map": "hospital_2021"}),
-        ("PicoHospital-v0, generated hospitals, defaults", {}),
-    ]
-    runs = [_env_rate(args.steps, args.seed)] + [
-        _env_rate(args.steps, args.seed, "PicoHospital-v0", **kwargs) for _, kwargs in rows
-    ]
+    rows = HOSPITAL_ROWS if env_id == "PicoHospital-v0" else EXPLORE_ROWS
+    runs = [_env_rate(args.steps, args.seed)] + [_env_rate(args.steps, args.seed, env_id, **kwargs) for _, kwargs in rows]
     rates: list[list[float]] = [[] for _ in runs]
     for _ in range(args.repeats):
         for k, run in enumerate(runs):
@@ -188,9 +193,11 @@ def bench_hospital(args: argparse.Namespace) -> int:
         )
     print()
     for label, kwargs in rows:
-        rate, ms = _reset_rate("PicoHospital-v0", args.seed, args.repeats, **kwargs)
+        rate, ms = _reset_rate(env_id, args.seed, args.repeats, **kwargs)
         print(f"{'reset, ' + label.split(', ', 1)[1]:<66} {rate:9,.0f} resets/s   ({ms:.1f} ms median)")
     print()
+    if env_id != "PicoHospital-v0":
+        return 0
     lrf = Lrf(LrfConfig())
     for name in ("hospital_2019", "hospital_2021"):
         env = gym.make("PicoHospital-v0", map=name)
@@ -305,8 +312,8 @@ def cmd_bench_env(args: argparse.Namespace) -> int:
         print(f"machine : {_machine()}\nversions: {_versions()}\n")
         bench_lrf(args.repeats, args.seed)
         return 0
-    if args.env == "PicoHospital-v0":
-        return bench_hospital(args)
+    if args.env in ("PicoHospital-v0", "PicoExplore-v0"):
+        return bench_hospital(args, args.env)
     print(f"machine : {_machine()}")
     print(f"versions: {_versions()}")
     print(f"method  : median of {args.repeats} runs; random actions, one process, a generated room per episode\n")

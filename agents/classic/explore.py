@@ -393,6 +393,8 @@ class ExploreAgent(Agent):
         self.fits = 0
         self.frontiers: list[FloatArray] = []
         self.backoff_until = 0
+        self.unstick_until = 0
+        self.still_steps = 0
         if task is not None and getattr(task, "prior_map", None) is not None and self.phase == "find":
             # Started parked (options phase="find"): a prior map is given; the agent does not use
             # it beyond knowing that it is parked and the world is the one it maps from here.
@@ -461,6 +463,24 @@ class ExploreAgent(Agent):
         near = np.vstack([near, self._wary(behind[blind])])  # the map covers the LRF's blind sector
         if self.stored is not None:
             self._look_for_object(ranges)
+        moving = math.hypot(delta.x, delta.y) > 0.003 or abs(delta.theta) > 0.01
+        waiting = self.state in (State.PARKED, State.FOUND, State.REVERSE)
+        self.still_steps = 0 if moving or waiting else self.still_steps + 1
+        if self.still_steps > self._steps(8.0):
+            self.unstick_until = self.steps + self._steps(1.5)
+            self.still_steps = 0
+            self.path = []
+        if self.steps < self.unstick_until:
+            # Boxed in (the filters stop every way the plan wants): towards the most open
+            # direction in view, whatever the plan, then plan again (the 30 s idle rule).
+            view = np.abs(self.angles) < 1.6
+            k = int(np.argmax(np.where(view, ranges, -1.0)))
+            a = float(self.angles[k])
+            command = (0.12 * math.cos(a), 0.12 * math.sin(a), 0.0)
+            vx, vy, w = safety_filter(near, command, self.motion)
+            self.previous_odom = odom
+            self.previous_ranges = ranges
+            return np.array([vx, vy, w], dtype=np.float32)
         vx, vy, w = getattr(self, f"_{self.state.value}")(ranges, near, odom, delta)
         if self.state is not State.REVERSE:
             v = keep_in_view(np.array([vx, vy]), self.motion)
