@@ -395,6 +395,7 @@ class ExploreAgent(Agent):
         self.backoff_until = 0
         self.unstick_until = 0
         self.still_steps = 0
+        self.retried: list[FloatArray] = []
         if task is not None and getattr(task, "prior_map", None) is not None and self.phase == "find":
             # Started parked (options phase="find"): a prior map is given; the agent does not use
             # it beyond knowing that it is parked and the world is the one it maps from here.
@@ -563,7 +564,15 @@ class ExploreAgent(Agent):
             self._go(State.PARK)
             return 0.0, 0.0, 0.0
         if self._replan_due():
-            if not self._plan_to_frontier(self._unknown_mask()):
+            found = self._plan_to_frontier(self._unknown_mask())
+            fresh = [q for q in self.given_up if not any(np.linalg.norm(q - r) < 0.3 for r in self.retried)]
+            if not found and fresh:
+                # Only frontiers given up on are left: they may have become reachable since (each
+                # gets one more try).
+                self.retried += fresh
+                self.given_up = [q for q in self.given_up if not any(q is f for f in fresh)]
+                found = self._plan_to_frontier(self._unknown_mask())
+            if not found:
                 self._go(State.PARK)
                 return 0.0, 0.0, 0.0
         return self._follow(near)
