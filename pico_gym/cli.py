@@ -37,7 +37,15 @@ def cmd_maps(args: argparse.Namespace) -> int:
         for name, path in shipped_maps().items():
             world = load_shipped(name)
             x0, y0, x1, y1 = world.bounds
-            env = "PicoEscape-v0" if world.finish is not None else ("PicoHospital-v0" if world.cabinets else "-")
+            env = (
+                "PicoEscape-v0"
+                if world.finish is not None
+                else "PicoHospital-v0"
+                if world.cabinets
+                else "PicoExplore-v0"
+                if "parking_wall" in world.extra
+                else "-"
+            )
             print(
                 f"{name:<30} {env:<16} {x1 - x0:5.1f} x {y1 - y0:<5.1f} {len(world.seen_segments(False)):>8}"
                 f" {len(world.cabinets):>8} {len(world.door_segments):>5}  {path.name}"

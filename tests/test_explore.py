@@ -424,3 +424,11 @@ def test_pose_is_the_start_pose() -> None:
     env = explore().unwrapped
     _, info = env.reset(seed=0, options={"start_pose": (0.6, 0.6, 0.1)})
     assert Pose(*info["pose"]) == Pose(0.6, 0.6, 0.1)
+
+
+def test_the_shipped_explore_map_plays() -> None:
+    env = explore(map="explore_example").unwrapped
+    _, info = env.reset(seed=0)
+    b = env.episode.extra["building"]
+    assert len(b.region_cells) == 5 and sorted(b.depth.tolist()) == [0, 1, 1, 1, 2]
+    assert info["phase"] == "explore" and math.isfinite(info["shortest_path_length"])
