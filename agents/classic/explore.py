@@ -983,10 +983,6 @@ class ExploreAgent(Agent):
         close = near[np.hypot(near[:, 0], near[:, 1]) < 0.5]
         if len(close) == 0:
             return w
-        # Slowly when close to anything: what the turn swings into comes into the LRF's view as
-        # the robot turns, and a slow turn leaves the filters the steps to see it.
-        dmin = float(footprint_distance(close, self.motion)[0].min())
-        w = w * float(np.clip((dmin - 0.03) / 0.25, 0.2, 1.0))
         for scale in (1.0, 0.5, 0.25, 0.0):
             a = -w * scale * 0.5
             c, s = math.cos(a), math.sin(a)
