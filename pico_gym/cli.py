@@ -157,7 +157,10 @@ def _reset_rate(env_id: str, seed: int, repeats: int, **kwargs: object) -> tuple
 
 
 HOSPITAL_ROWS = [
-    ("PicoHospital-v0, hospital_2019, 2 movers, 2 boxes, 0-1 closed doors", {"map": "hospital_2019", "n_movers": (2, 2), "n_boxes": (2, 2)}),
+    (
+        "PicoHospital-v0, hospital_2019, 2 movers, 2 boxes, 0-1 closed doors",
+        {"map": "hospital_2019", "n_movers": (2, 2), "n_boxes": (2, 2)},
+    ),
     ("PicoHospital-v0, hospital_2019, defaults", {"map": "hospital_2019"}),
     ("PicoHospital-v0, hospital_2021 (its 2 movers, 0-2 boxes)", {"map": "hospital_2021"}),
     ("PicoHospital-v0, generated hospitals, defaults", {}),
@@ -184,7 +187,9 @@ def bench_hospital(args: argparse.Namespace, env_id: str = "PicoHospital-v0") ->
         "of each round's ratio to escape's row in that round\n"
     )
     rows = HOSPITAL_ROWS if env_id == "PicoHospital-v0" else EXPLORE_ROWS
-    runs = [_env_rate(args.steps, args.seed)] + [_env_rate(args.steps, args.seed, env_id, **kwargs) for _, kwargs in rows]
+    runs = [_env_rate(args.steps, args.seed)] + [
+        _env_rate(args.steps, args.seed, env_id, **kwargs) for _, kwargs in rows
+    ]
     rates: list[list[float]] = [[] for _ in runs]
     for _ in range(args.repeats):
         for k, run in enumerate(runs):

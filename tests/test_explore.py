@@ -136,7 +136,9 @@ def test_ties_for_the_deepest_room_are_drawn_from_the_seed() -> None:
     rooms = set()
     for seed in range(20):
         env.reset(seed=seed)
-        h = generate_explore_hospital(np.random.default_rng(seed), ExploreHospitalConfig(n_rooms=(6, 6), nested_probability=0.0))
+        h = generate_explore_hospital(
+            np.random.default_rng(seed), ExploreHospitalConfig(n_rooms=(6, 6), nested_probability=0.0)
+        )
         c = env.episode.extra["object"].mean(axis=0)
         rooms.add(next(i for i, r in enumerate(h.rooms) if inside(r, *c)))
     assert len(rooms) > 2  # all rooms tie at one door: the object moves between them

@@ -60,7 +60,9 @@ def test_the_map_after_looking_around_matches_the_building() -> None:
             ok = np.zeros(len(r), dtype=bool)
             ok[inside] = building.region[r[inside], k[inside]] >= -1  # inside the building's free area
             # (cells of the free area's rim, within half a coverage cell of a wall, count too)
-            rim = np.array([point_clearance(float(x), float(y), walls) < 0.08 for x, y in zip(mx[~ok], my[~ok], strict=True)])
+            rim = np.array(
+                [point_clearance(float(x), float(y), walls) < 0.08 for x, y in zip(mx[~ok], my[~ok], strict=True)]
+            )
             assert len(ok) > 1000 and (ok.sum() + rim.sum()) / len(ok) > 0.97
         else:
             near = [point_clearance(float(x), float(y), walls) < 0.1 for x, y in zip(mx, my, strict=True)]

@@ -324,7 +324,14 @@ def _components(mask: np.ndarray) -> list[np.ndarray]:
             r, c = stack.pop()
             cells.append((r, c))
             for rr, cc in (
-                (r + 1, c), (r - 1, c), (r, c + 1), (r, c - 1), (r + 1, c + 1), (r + 1, c - 1), (r - 1, c + 1), (r - 1, c - 1)
+                (r + 1, c),
+                (r - 1, c),
+                (r, c + 1),
+                (r, c - 1),
+                (r + 1, c + 1),
+                (r + 1, c - 1),
+                (r - 1, c + 1),
+                (r - 1, c - 1),
             ):
                 if 0 <= rr < mask.shape[0] and 0 <= cc < mask.shape[1] and mask[rr, cc] and not seen[rr, cc]:
                     seen[rr, cc] = True
@@ -456,7 +463,12 @@ class ExploreAgent(Agent):
         r, c = int((self.pose.y - g.y0) / g.resolution), int((self.pose.x - g.x0) / g.resolution)
         k0, k1, k2, k3 = self.known
         n = self.logodds.shape[0]
-        self.known = (max(min(k0, r - reach), 0), min(max(k1, r + reach), n), max(min(k2, c - reach), 0), min(max(k3, c + reach), n))
+        self.known = (
+            max(min(k0, r - reach), 0),
+            min(max(k1, r + reach), n),
+            max(min(k2, c - reach), 0),
+            min(max(k3, c + reach), n),
+        )
         near = scan_points(ranges, self.angles, self.spec.lrf.range_max_m, len(ranges))
         near = near[np.hypot(near[:, 0], near[:, 1]) < 1.2]
         behind = self._mapped_near(0.7)
@@ -521,7 +533,9 @@ class ExploreAgent(Agent):
             self._fit_wall(ranges)
         if self._safe_turn(near, 1.0) < 0.5:
             # Too close to something to turn: away from it first (the start may be near a wall).
-            v = attract_and_repel(near, np.zeros(2), dataclasses.replace(self.follow, repulsion_range=0.4, repulsion_gain=0.02), speed=0.1)
+            v = attract_and_repel(
+                near, np.zeros(2), dataclasses.replace(self.follow, repulsion_range=0.4, repulsion_gain=0.02), speed=0.1
+            )
             return float(v[0]), float(v[1]), 0.0
         if self.turned >= 2 * math.pi + 0.2:
             if self.wall is None:  # nothing seen behind: assume the wall 0.6 m behind the start
@@ -543,12 +557,18 @@ class ExploreAgent(Agent):
             return
         # The wall faces the robot within about 15 deg: keep the points near the depth straight
         # ahead (the side walls' points, nearer, would tilt the line).
-        ahead = float(np.median(pts[np.abs(pts[:, 1]) < 0.05, 0])) if (np.abs(pts[:, 1]) < 0.05).sum() >= 3 else float(pts[:, 0].max())
+        ahead = (
+            float(np.median(pts[np.abs(pts[:, 1]) < 0.05, 0]))
+            if (np.abs(pts[:, 1]) < 0.05).sum() >= 3
+            else float(pts[:, 0].max())
+        )
         pts = pts[np.abs(pts[:, 0] - ahead) < 0.15 + 0.3 * np.abs(pts[:, 1])]
         if len(pts) < 15:
             return
         c, s = math.cos(self.pose.theta), math.sin(self.pose.theta)
-        world = np.column_stack([self.pose.x + c * pts[:, 0] - s * pts[:, 1], self.pose.y + s * pts[:, 0] + c * pts[:, 1]])
+        world = np.column_stack(
+            [self.pose.x + c * pts[:, 0] - s * pts[:, 1], self.pose.y + s * pts[:, 0] + c * pts[:, 1]]
+        )
         centre = world.mean(axis=0)
         _, _, vt = np.linalg.svd(world - centre)
         direction = vt[0]
@@ -685,7 +705,9 @@ class ExploreAgent(Agent):
             window[cells[:, 0] - r0, cells[:, 1] - c0] = False
             if window.any() or free[r0:r1, c0:c1].sum() < 0.6 * window.size:
                 continue
-            spot = np.array([p.x0 + (cells[:, 1].mean() + 0.5) * p.resolution, p.y0 + (cells[:, 0].mean() + 0.5) * p.resolution])
+            spot = np.array(
+                [p.x0 + (cells[:, 1].mean() + 0.5) * p.resolution, p.y0 + (cells[:, 0].mean() + 0.5) * p.resolution]
+            )
             if all(np.linalg.norm(spot - q) > 0.5 for q in self.given_up):
                 self.object = spot
                 return
@@ -903,7 +925,9 @@ class ExploreAgent(Agent):
         self._clearance = self._occupied_clearance
         blocked = ~np.isfinite(costs.cost) | (self._clearance < 0.75 * self.config.comfort_m)
         pulled = string_pull(blocked, cells)
-        self.path = [np.array([p.x0 + (cc + 0.5) * p.resolution, p.y0 + (rr + 0.5) * p.resolution]) for rr, cc in pulled[1:]]
+        self.path = [
+            np.array([p.x0 + (cc + 0.5) * p.resolution, p.y0 + (rr + 0.5) * p.resolution]) for rr, cc in pulled[1:]
+        ]
         if not self.path:
             self.path = [spot]
         self.plan_step = self.steps
@@ -932,7 +956,9 @@ class ExploreAgent(Agent):
                 return 0.0, 0.0, 0.0
         if self.steps < self.backoff_until:
             # Away from what is nearest (the way it came, as the LRF sees it), then plan anew.
-            v = attract_and_repel(near, np.zeros(2), dataclasses.replace(self.follow, repulsion_range=0.4, repulsion_gain=0.02), speed=0.2)
+            v = attract_and_repel(
+                near, np.zeros(2), dataclasses.replace(self.follow, repulsion_range=0.4, repulsion_gain=0.02), speed=0.2
+            )
             return float(v[0]), float(v[1]), 0.0
             if remaining < 0.2 and len(self.path) <= 1:
                 self.path = []  # reached: plan anew
@@ -1031,9 +1057,9 @@ class ExploreAgent(Agent):
         pts = np.column_stack([g.x0 + (cols[take] + 0.5) * g.resolution, g.y0 + (rows[take] + 0.5) * g.resolution])
         here = np.array([self.pose.x, self.pose.y])
         path = np.array([here, *self.path]) if self.path else np.zeros((0, 2))
-        crosses = [
-            (f[0] - d, f[1] - d, f[0] + d, f[1] + d) for f in self.frontiers for d in (0.1,)
-        ] + [(f[0] - d, f[1] + d, f[0] + d, f[1] - d) for f in self.frontiers for d in (0.1,)]
+        crosses = [(f[0] - d, f[1] - d, f[0] + d, f[1] + d) for f in self.frontiers for d in (0.1,)] + [
+            (f[0] - d, f[1] + d, f[0] + d, f[1] - d) for f in self.frontiers for d in (0.1,)
+        ]
         return Overlay(
             frame="odom",
             segments=np.array(crosses, dtype=float).reshape(-1, 4),

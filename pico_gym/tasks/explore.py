@@ -159,7 +159,9 @@ class ExploreTaskConfig:
         number("ExploreTaskConfig.coverage_resolution_m", self.coverage_resolution_m, 0.02, 0.5, unit=" m")
         number("ExploreTaskConfig.coverage_beam_stride", self.coverage_beam_stride, 1, 1000, integer=True)
         if not isinstance(self.phase_observation, bool):
-            raise ValueError(f"ExploreTaskConfig.phase_observation must be True or False, got {self.phase_observation!r}")
+            raise ValueError(
+                f"ExploreTaskConfig.phase_observation must be True or False, got {self.phase_observation!r}"
+            )
 
     @property
     def idle_rule(self) -> IdleRule:

@@ -397,7 +397,9 @@ def hallway_door(
     """A door opening from `room` to the hallway leg it hangs off (on `side`), at least `margin`
     from the corners of the wall it is in; None if the shared wall is too short."""
     horizontal = (leg[2] - leg[0]) >= (leg[3] - leg[1])
-    a0, a1 = (max(room[0], leg[0]), min(room[2], leg[2])) if horizontal else (max(room[1], leg[1]), min(room[3], leg[3]))
+    a0, a1 = (
+        (max(room[0], leg[0]), min(room[2], leg[2])) if horizontal else (max(room[1], leg[1]), min(room[3], leg[3]))
+    )
     width = float(rng.uniform(*width_m))
     if a1 - a0 < width + 2 * margin:
         return None

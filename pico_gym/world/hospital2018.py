@@ -126,7 +126,12 @@ def _try_generate(rng: np.random.Generator, cfg: ExploreHospitalConfig) -> Gener
     for i, (room, (k, side), row) in enumerate(zip(rooms, attach, row_of, strict=True)):
         door = None
         before = previous.get((k, side))
-        if before is not None and row[2] > 0 and depth[before] < cfg.max_depth and rng.random() < cfg.nested_probability:
+        if (
+            before is not None
+            and row[2] > 0
+            and depth[before] < cfg.max_depth
+            and rng.random() < cfg.nested_probability
+        ):
             door = shared_wall_door(rng, rooms[before], room, cfg.door_width_m, margin)
             if door is not None:
                 parent.append(before)
