@@ -27,7 +27,8 @@ The states:
 
 Hand-written in numpy and numba: this is the course's subject. Not built: a scan matcher that
 beats the odometry (the correlative one here random-walks the heading), a room/door graph (the
-object hint "most doors" is not used: the search is nearest-first), loop closure.
+object hint "most doors" is not used: the search is nearest-first), loop closure, reading the
+prior map of a start in "find" (it maps again from the parked start).
 """
 
 from __future__ import annotations
@@ -195,33 +196,6 @@ def _integrate(
             if hits[eq, ec] < 60000:
                 hits[eq, ec] += 1
             checked[eq // 2, ec // 2] = True
-
-
-@njit
-def _pairs(
-    points: np.ndarray, logodds: np.ndarray, x0: float, y0: float, res: float, radius: int, occupied: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """For every point, the centre of the nearest occupied cell within `radius` cells (ok flags)."""
-    rows, cols = logodds.shape
-    n = points.shape[0]
-    ok = np.zeros(n, dtype=np.bool_)
-    out = np.zeros((n, 2))
-    for i in range(n):
-        fx, fy = (points[i, 0] - x0) / res, (points[i, 1] - y0) / res
-        c, q = int(math.floor(fx)), int(math.floor(fy))
-        best = math.inf
-        for dq in range(-radius, radius + 1):
-            for dc in range(-radius, radius + 1):
-                qq, cc = q + dq, c + dc
-                if qq < 0 or qq >= rows or cc < 0 or cc >= cols or logodds[qq, cc] <= occupied:
-                    continue
-                d = (cc + 0.5 - fx) ** 2 + (qq + 0.5 - fy) ** 2
-                if d < best:
-                    best = d
-                    out[i, 0] = x0 + (cc + 0.5) * res
-                    out[i, 1] = y0 + (qq + 0.5) * res
-        ok[i] = best < math.inf
-    return ok, out
 
 
 @njit
@@ -403,10 +377,6 @@ class ExploreAgent(Agent):
         self.unstick_until = 0
         self.still_steps = 0
         self.retried: list[FloatArray] = []
-        if task is not None and getattr(task, "prior_map", None) is not None and self.phase == "find":
-            # Started parked (options phase="find"): a prior map is given; the agent does not use
-            # it beyond knowing that it is parked and the world is the one it maps from here.
-            self.state = State.LOOK
 
     def belief(self) -> None:
         """No pose on a given map to report (the explore agent has no map frame to localise in)."""
