@@ -446,6 +446,7 @@ class ExploreTask(ConfiguredTask):
             self._fixed = (wall, normal, building)
             _object_of(fixed_map)  # refuse a bad `object` key at construction
         self.episode: Episode | None = None
+        self._phase_began_s = 0.0
 
     @property
     def action_extras(self) -> tuple[np.ndarray, np.ndarray]:
