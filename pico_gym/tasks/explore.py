@@ -478,9 +478,9 @@ class ExploreTask(ConfiguredTask):
         obj = _object_of(world)
         if obj is None:
             obj = self._place_object(rng, world, building, where)
-        if start is None:
-            start = self._start(rng, world, wall, normal, where, parked=phase == "find")
         static = _static_segments(world)
+        if start is None:
+            start = self._start(rng, static, wall, normal, where, parked=phase == "find")
         empty = Scene(world)
         self._object_scene = Scene(world, (), (obj,), empty.movers)  # what the world becomes once parked
         scene = self._object_scene if phase == "find" else empty
@@ -511,7 +511,7 @@ class ExploreTask(ConfiguredTask):
         self._false = 0
         self._start_foot = float((np.asarray(start[:2]) - wall[0]) @ _unit(wall[1] - wall[0]))
         self._object_distance = self._footprint_to_object(start)
-        shortest = self._oracle_length(building, start, obj, where)
+        shortest = self._oracle_length(building, start)
         public = ExploreTaskSpec(
             phase=self._phase,
             prior_map=world if phase == "find" else None,
@@ -531,14 +531,13 @@ class ExploreTask(ConfiguredTask):
         return self.episode
 
     def _start(
-        self, rng: np.random.Generator, world: Map, wall: FloatArray, normal: FloatArray, where: Any, parked: bool
+        self, rng: np.random.Generator, solid: Segments, wall: FloatArray, normal: FloatArray, where: Any, parked: bool
     ) -> Pose:
         cfg = self.config
         along = wall[1] - wall[0]
         length = float(np.hypot(*along))
         direction = along / length
         away = math.atan2(normal[1], normal[0])
-        solid = np.vstack([_static_segments(world)])
         for _ in range(200):
             lateral = float(rng.uniform(0.3, length - 0.3)) if length > 0.6 else 0.5 * length
             if parked:
@@ -572,13 +571,12 @@ class ExploreTask(ConfiguredTask):
                 return box_corners(float(x), float(y), 0.0, a, c)
         raise ValueError(f"{where}: no free spot for the object in the room that needs the most doors")
 
-    def _oracle_length(self, b: Building, start: Pose, obj: FloatArray, where: Any) -> float:
+    def _oracle_length(self, b: Building, start: Pose) -> float:
         """The shortest path from the start to a point within `find_distance_m` of the object."""
-        clearance = np.minimum(b.clearance, clearance_grid(b.grid, self._object_segments, cap=1.5))
-        costs = CostGrid.from_clearance(b.grid, clearance, inflation_m=FIELD_INFLATION_M)
+        to_object = clearance_grid(b.grid, self._object_segments, cap=2.0)
+        costs = CostGrid.from_clearance(b.grid, np.minimum(b.clearance, to_object), inflation_m=FIELD_INFLATION_M)
         field = costs.field_from_point(start.x, start.y)
-        g = b.grid
-        near = clearance_grid(g, self._object_segments, cap=2.0) <= self.config.find_distance_m + self._rear_offset
+        near = to_object <= self.config.find_distance_m + self._rear_offset
         values = field.distance[near & np.isfinite(field.distance)]
         return float(values.min()) if len(values) else math.inf
 
