@@ -709,12 +709,17 @@ def _start_session(run_dir: Path, resumed_at: int | None) -> float:
     if current.exists():
         os.replace(current, tb / f"progress.{len(_session_files(run_dir))}.csv")
     evals = run_dir / "eval.csv"
+    last_eval_s = 0.0
     if evals.exists():
         fields, rows = _csv_rows(evals)
         kept = [r for r in rows if _number_or(r, "timesteps", 0) <= resumed_at]
         if len(kept) != len(rows):
             _write_csv(evals, fields, kept)
-    return sum(_number_or((_csv_rows(f)[1] or [{}])[-1], _ELAPSED, 0.0) for f in _session_files(run_dir))
+        last_eval_s = max((_number_or(r, "wall_clock_s", 0.0) for r in kept), default=0.0)
+    # SB3 logs time_elapsed in whole seconds, so the sessions' sum can fall short of the clock
+    # an evaluation already wrote down; the run's clock never goes back.
+    elapsed = sum(_number_or((_csv_rows(f)[1] or [{}])[-1], _ELAPSED, 0.0) for f in _session_files(run_dir))
+    return max(elapsed, last_eval_s)
 
 
 def _join_progress(run_dir: Path) -> None:
