@@ -17,9 +17,9 @@ import gymnasium as gym
 
 from pico_gym.agents.base import Agent, RobotSpec
 
-AGENTS = ("classic", "ppo", "wall-follow", "random", "classic-oracle")
+AGENTS = ("classic", "ppo", "wall-follow", "random", "classic-oracle", "ppo-pointgoal")
 # Agents that read privileged state (the true pose) for benchmarks: never a baseline to beat.
-PRIVILEGED_AGENTS = ("classic-oracle",)
+PRIVILEGED_AGENTS = ("classic-oracle", "ppo-pointgoal")
 CLASSIC_ENVS = ("PicoEscape-v0", "PicoHospital-v0", "PicoExplore-v0")  # the classic agent has a strategy for these
 
 
@@ -55,6 +55,15 @@ def make_agent(name: str, env: gym.Env, **kwargs: Any) -> Agent:
         from pico_gym.agents.classic.hospital import OraclePoseAgent
 
         return OraclePoseAgent(spec, env, **kwargs)
+    if name == "ppo-pointgoal":
+        if env_id != "PicoHospital-v0":
+            raise ValueError(f"the ppo-pointgoal agent (privileged point goal) plays PicoHospital-v0 only; got {env_id}")
+        from pico_gym.agents.ppo import SHIPPED_POINTGOAL_POLICY, PpoAgent
+        from pico_gym.wrappers import point_goal
+
+        if kwargs.get("path") is None:
+            kwargs["path"] = SHIPPED_POINTGOAL_POLICY
+        return PpoAgent(spec, goal=lambda: point_goal(env), **kwargs)  # privileged: the true pose
     if name == "classic" and env_id == "PicoExplore-v0":
         from pico_gym.agents.classic.explore import ExploreAgent
 

@@ -16,6 +16,7 @@ pickling off.
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -29,6 +30,8 @@ from pico_gym.wrappers import LearningConfig, LearningEncoder, rescale_action
 # The shipped policy (see agents/models/MODEL_CARD.md): its actor arrays, and SB3's training zip.
 SHIPPED_POLICY = Path(__file__).parent / "models" / "ppo_escape.npz"
 SHIPPED_MODEL = SHIPPED_POLICY.with_suffix(".zip")
+# The end-to-end hospital baseline (privileged point goal, see HOSPITAL_POINTGOAL_CARD.md).
+SHIPPED_POINTGOAL_POLICY = Path(__file__).parent / "models" / "ppo_hospital_pointgoal.npz"
 TRAIN_EXTRA_HINT = "pip install 'pico-gym[train]' (CPU-only torch: see the README's 'Installing torch')"
 
 
@@ -131,6 +134,9 @@ class PpoAgent(Agent):
         learning: the observation encoding `model` was trained with.
         deterministic: mean action, or a sample.
         seed: seeds the sampling generator.
+        goal: for a policy trained with `point_goal` (privileged), what fills `obs["point_goal"]`
+            when the env's observations lack it (`make_agent("ppo-pointgoal", env)` reads the
+            env's true state with `pico_gym.wrappers.point_goal`).
     """
 
     name = "ppo"
@@ -143,6 +149,7 @@ class PpoAgent(Agent):
         learning: LearningConfig | None = None,
         deterministic: bool = True,
         seed: int = 0,
+        goal: Callable[[], np.ndarray] | None = None,
     ) -> None:
         super().__init__(spec)
         if model is None:
@@ -163,15 +170,21 @@ class PpoAgent(Agent):
             )
         self._low, self._high = spec.robot.action_low, spec.robot.action_high
         self._first: np.ndarray | None = None
+        self._goal = goal if learning.point_goal else None
+
+    def _with_goal(self, obs: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        if self._goal is None or "point_goal" in obs:
+            return obs
+        return {**obs, "point_goal": self._goal()}
 
     def reset(self, obs: dict[str, np.ndarray], info: dict[str, Any] | None = None) -> None:
-        self._first = self.encoder.reset(obs)
+        self._first = self.encoder.reset(self._with_goal(obs))
         self.rng = episode_rng(self.seed, obs)
 
     def act(self, obs: dict[str, np.ndarray]) -> np.ndarray:
         if self._first is not None:  # the observation reset() already encoded
             x, self._first = self._first, None
         else:
-            x = self.encoder.encode(obs)
+            x = self.encoder.encode(self._with_goal(obs))
         unit = self.actor.act(x, None if self.deterministic else self.rng)
         return rescale_action(unit, self._low, self._high).astype(np.float32)

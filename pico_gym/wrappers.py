@@ -9,6 +9,10 @@ Each step of the usual pipeline is a standard wrapper, usable on its own:
 - gymnasium's `FlattenObservation`, `FrameStackObservation` and `RescaleAction` (actions in
   [-1, 1], as stable-baselines3 advises) do the rest.
 
+- `PrivilegedPointGoal` (opt-in, PicoHospital-v0): adds `obs["point_goal"]`, the range and
+  bearing to the next arrival square and the heading error to facing its cabinet, from the TRUE
+  pose (Habitat PointNav's privileged goal sensor): a baseline for RL research, never a course agent.
+
 `PicoLearningWrapper` is that whole pipeline in one wrapper (one line in an rl-zoo3 config), built
 on `LearningEncoder`, which turns raw observations into the policy's input outside any env too: the
 PPO agent uses it to act on an env's raw observations exactly as in training.
@@ -301,6 +305,62 @@ class OdomVelocity(gym.Wrapper):
         return {**obs, "odom": velocity}, reward, terminated, truncated, info
 
 
+# --- the privileged point goal (end-to-end baseline) ---------------------------------------
+POINT_GOAL_SIZE = 5
+POINT_GOAL_RANGE_M = 20.0  # ranges beyond this read 1
+
+
+def point_goal(env: gym.Env) -> np.ndarray:
+    """The privileged point goal of a PicoHospital-v0 env, from its TRUE pose and task state.
+
+    [log-scaled range to the next arrival square's centre (0 at it, 1 at POINT_GOAL_RANGE_M and
+    beyond: log(1 + d / 0.1) / log(1 + 20 / 0.1)), sin and cos of its bearing in the robot's frame,
+    sin and cos of the heading error to facing its cabinet]; once every cabinet is done, the robot
+    is at its goal: [0, 0, 1, 0, 1].
+    """
+    base = env.unwrapped
+    target = base.task.next_target
+    if target is None:
+        return np.array([0.0, 0.0, 1.0, 0.0, 1.0], np.float32)
+    pose = base.pose
+    gx, gy = target.dock_point(0.5 * target.side_m)
+    dx, dy = float(gx) - float(pose.x), float(gy) - float(pose.y)
+    d = math.hypot(dx, dy)
+    bearing = math.atan2(dy, dx) - float(pose.theta)
+    error = target.facing_rad - float(pose.theta)
+    r = min(math.log1p(d / 0.1) / math.log1p(POINT_GOAL_RANGE_M / 0.1), 1.0)
+    return np.array([r, math.sin(bearing), math.cos(bearing), math.sin(error), math.cos(error)], np.float32)
+
+
+class PrivilegedPointGoal(gym.Wrapper):
+    """Adds `obs["point_goal"]` (see `point_goal`) to PicoHospital-v0's observations.
+
+    PRIVILEGED: it reads the true pose and the task's next cabinet, which no course agent was
+    given (Habitat PointNav's convention of a privileged GPS+compass goal sensor). It exists for
+    the end-to-end RL baseline; agents trained with it are listed in PRIVILEGED_AGENTS.
+    """
+
+    def __init__(self, env: gym.Env) -> None:
+        task = getattr(env.unwrapped, "task", None)
+        if not hasattr(type(task), "next_target"):
+            raise ValueError(
+                f"PrivilegedPointGoal needs a task with a next target (PicoHospital-v0); got {type(env.unwrapped).__name__}"
+            )
+        super().__init__(env)
+        spaces = dict(env.observation_space.spaces)  # type: ignore[attr-defined]
+        low = np.array([0.0, -1.0, -1.0, -1.0, -1.0], np.float32)
+        spaces["point_goal"] = gym.spaces.Box(low, np.ones(POINT_GOAL_SIZE, np.float32), dtype=np.float32)
+        self.observation_space = gym.spaces.Dict(spaces)
+
+    def reset(self, **kwargs: Any) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        obs, info = self.env.reset(**kwargs)
+        return {**obs, "point_goal": point_goal(self.env)}, info
+
+    def step(self, action: Any) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
+        obs, reward, terminated, truncated, info = self.env.step(action)
+        return {**obs, "point_goal": point_goal(self.env)}, reward, terminated, truncated, info
+
+
 # --- the whole pipeline ---------------------------------------------------------------------
 @dataclass(frozen=True)
 class LearningConfig:
@@ -314,6 +374,8 @@ class LearningConfig:
         odometry: "velocity" (body-frame velocity from odometry) or "none".
         range_scale: how ranges map to [0, 1]: "linear" or "log" (resolves the near field; see
             `scale_ranges`).
+        point_goal: the frame ends with `obs["point_goal"]` (POINT_GOAL_SIZE values), which
+            `PrivilegedPointGoal` adds: privileged, for the end-to-end hospital baseline only.
     """
 
     n_sectors: int = 64
@@ -322,8 +384,11 @@ class LearningConfig:
     max_pool: bool = False
     memory_sectors: int = 0
     range_scale: Literal["linear", "log"] = "linear"
+    point_goal: bool = False
 
     def __post_init__(self) -> None:
+        if not isinstance(self.point_goal, bool):
+            raise ValueError(f"point_goal must be true or false, got {self.point_goal!r}")
         if self.frame_stack < 1:
             raise ValueError(f"frame_stack must be >= 1, got {self.frame_stack}")
         if self.odometry not in ("velocity", "none"):
@@ -340,7 +405,8 @@ class LearningEncoder:
     call `reset` with an episode's first observation, then `encode` with each next one).
 
     One frame is [LRF sector minima..., (sector maxima... with max_pool,) (range memory... with
-    memory_sectors,) vx, vy, w] (the last three only with odometry="velocity"); the input is the
+    memory_sectors,) (the point goal with point_goal,) vx, vy, w] (the last three only with
+    odometry="velocity"); the input is the
     last `frame_stack` frames, oldest first, the first frame repeated at a reset (gymnasium's
     FrameStackObservation with padding "reset").
     """
@@ -358,10 +424,14 @@ class LearningEncoder:
         self.frame_size = (
             config.n_sectors * (2 if config.max_pool else 1)
             + config.memory_sectors
+            + (POINT_GOAL_SIZE if config.point_goal else 0)
             + (3 if config.odometry == "velocity" else 0)
         )
         low = np.zeros(self.frame_size, np.float32)
         high = np.ones(self.frame_size, np.float32)
+        self._goal_at = config.n_sectors * (2 if config.max_pool else 1) + config.memory_sectors
+        if config.point_goal:
+            low[self._goal_at + 1 : self._goal_at + POINT_GOAL_SIZE] = -1.0
         if config.odometry == "velocity":
             low[-3:], high[-3:] = -1.5, 1.5
         k = config.frame_stack
@@ -384,6 +454,14 @@ class LearningEncoder:
             n *= 2
         if self.memory is not None:
             frame[n : n + self.config.memory_sectors] = self.memory.update(lrf, float(obs["odom"][2]))
+        if self.config.point_goal:
+            goal = obs.get("point_goal")
+            if goal is None:
+                raise ValueError(
+                    "LearningConfig(point_goal=True) needs obs['point_goal']: wrap the env in "
+                    "pico_gym.wrappers.PrivilegedPointGoal (before PicoLearningWrapper)"
+                )
+            frame[self._goal_at : self._goal_at + POINT_GOAL_SIZE] = goal
         if self.config.odometry == "velocity":
             frame[-3:] = velocity
 
@@ -439,11 +517,25 @@ class PicoLearningWrapper(gym.Wrapper):
         max_pool: bool = False,
         memory_sectors: int = 0,
         range_scale: str = "linear",
+        point_goal: bool = False,
     ) -> None:
         config = _env_config(env)
         ones = np.ones(env.action_space.shape, np.float32)
         super().__init__(gym.wrappers.RescaleAction(env, -ones, ones))
-        self.learning = LearningConfig(n_sectors, frame_stack, odometry, max_pool, memory_sectors, range_scale)  # type: ignore[arg-type]
+        self.learning = LearningConfig(
+            n_sectors,
+            frame_stack,
+            odometry,  # type: ignore[arg-type]
+            max_pool,
+            memory_sectors,
+            range_scale,  # type: ignore[arg-type]
+            point_goal,
+        )
+        if point_goal and "point_goal" not in getattr(env.observation_space, "spaces", {}):
+            raise ValueError(
+                "PicoLearningWrapper(point_goal=True): the env has no 'point_goal' observation; "
+                "wrap it in pico_gym.wrappers.PrivilegedPointGoal first"
+            )
         self.encoder = LearningEncoder(config.lrf, config.robot, config.dt_s, self.learning)
         self.observation_space = self.encoder.space
 

@@ -255,3 +255,28 @@ def test_progress_and_eval_records_continue_across_a_resume(tiny_config, tmp_pat
     assert eval_steps == sorted(eval_steps) and len(set(eval_steps)) == len(eval_steps)
     done = json.loads((run / "done.json").read_text())
     assert done["wall_clock_s"] >= clocks[-1] - 1.0
+
+
+def test_the_hospital_point_goal_config_trains_evaluates_and_acts(tmp_path):
+    """The end-to-end hospital config: its env block is found without naming it, the eval and
+    demonstration envs get the privileged point goal, and the result plays as ppo-pointgoal."""
+    shipped = Path(DEFAULT_CONFIG).with_name("ppo_hospital_pointgoal.yaml")
+    config = load_config(shipped)
+    assert config.env_id == "PicoHospital-v0" and config.learning.point_goal
+    config.zoo.update(n_envs=2, n_steps=128, batch_size=128, n_epochs=1, policy_kwargs="dict(net_arch=[32, 32])")
+    config.pico.update(bc_episodes=1, bc_epochs=1, eval_freq=256, eval_episodes=1, checkpoint_freq=256)
+    config.pico["env_kwargs"] = {"n_cabinets": 1, "time_limit_s": 10}
+    path = train(config, tmp_path / "run", timesteps=512, progress_bar=False)
+    env = gym.make("PicoHospital-v0", n_cabinets=1, time_limit_s=10)
+    agent = make_agent("ppo-pointgoal", env, path=path)
+    record = run_episode(env, agent, 3, "ppo-pointgoal")
+    assert record.time_s > 0
+    with pytest.raises(ValueError, match="PicoHospital-v0 only"):
+        make_agent("ppo-pointgoal", gym.make("PicoEscape-v0"), path=path)
+
+
+def test_a_config_with_two_env_blocks_is_refused(tmp_path):
+    path = tmp_path / "two.yaml"
+    path.write_text(TINY + TINY.split("pico-gym:")[0].replace("PicoEscape-v0", "PicoHospital-v0"))
+    with pytest.raises(ConfigError, match="expected one env block"):
+        load_config(path)

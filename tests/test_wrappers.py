@@ -12,9 +12,13 @@ from pico_gym.wrappers import (
     LrfMemory,
     MinPoolLrf,
     OdomVelocity,
+    POINT_GOAL_RANGE_M,
+    POINT_GOAL_SIZE,
     PicoLearningWrapper,
+    PrivilegedPointGoal,
     RangeMemory,
     min_pool,
+    point_goal,
     rescale_action,
     scale_ranges,
     sector_starts,
@@ -172,3 +176,46 @@ def test_range_memory_remembers_what_turned_out_of_view():
     assert body[ahead] == pytest.approx(0.2)
     with pytest.raises(ValueError, match="memory_sectors"):
         RangeMemory(angles, 2, 10.0)
+
+
+# --- the privileged point goal (end-to-end hospital baseline) ------------------------------------
+def test_point_goal_reads_the_next_cabinet_from_the_true_pose():
+    env = PrivilegedPointGoal(gym.make("PicoHospital-v0", map="hospital_2019", n_cabinets=2))
+    assert env.observation_space["point_goal"].shape == (POINT_GOAL_SIZE,)
+    obs, info = env.reset(seed=3, options={"cabinet_order": [1, 0]})
+    task = env.unwrapped.task
+    target = task.next_target
+    assert target.index == 1
+    pose = env.unwrapped.pose
+    goal = target.dock_point(0.5 * target.side_m)
+    d = float(np.hypot(*(goal - [pose.x, pose.y])))
+    r, sb, cb, se, ce = obs["point_goal"]
+    assert r == pytest.approx(np.log1p(d / 0.1) / np.log1p(POINT_GOAL_RANGE_M / 0.1), rel=1e-5)
+    bearing = np.arctan2(goal[1] - pose.y, goal[0] - pose.x) - pose.theta
+    assert (sb, cb) == pytest.approx((np.sin(bearing), np.cos(bearing)), abs=1e-6)
+    error = target.facing_rad - pose.theta
+    assert (se, ce) == pytest.approx((np.sin(error), np.cos(error)), abs=1e-6)
+    assert env.observation_space.contains(obs)
+    obs, *_ = env.step(np.zeros(3))
+    assert env.observation_space.contains(obs)
+    # It is privileged: the agent-facing info["task"] is unchanged, the point goal is not in it.
+    assert not hasattr(info["task"], "point_goal")
+
+
+def test_point_goal_learning_pipeline_and_its_errors():
+    base = gym.make("PicoHospital-v0", n_cabinets=2)
+    env = PicoLearningWrapper(PrivilegedPointGoal(base), n_sectors=16, frame_stack=2, point_goal=True)
+    plain = PicoLearningWrapper(gym.make("PicoHospital-v0", n_cabinets=2), n_sectors=16, frame_stack=2)
+    assert env.observation_space.shape[0] == plain.observation_space.shape[0] + 2 * POINT_GOAL_SIZE
+    x, _ = env.reset(seed=1)
+    assert env.observation_space.contains(x)
+    # the goal sits between the LRF sectors and the velocity in each frame
+    raw = point_goal(env)
+    frame = env.observation_space.shape[0] // 2
+    np.testing.assert_array_equal(x[frame + 16 : frame + 16 + POINT_GOAL_SIZE], raw)
+    with pytest.raises(ValueError, match="PrivilegedPointGoal first"):
+        PicoLearningWrapper(gym.make("PicoHospital-v0"), point_goal=True)
+    with pytest.raises(ValueError, match="PicoHospital-v0"):
+        PrivilegedPointGoal(gym.make("PicoEscape-v0"))
+    with pytest.raises(ValueError, match="point_goal"):
+        LearningConfig(point_goal="yes")  # type: ignore[arg-type]

@@ -100,8 +100,11 @@ def _wrapper_entry(entry: Any) -> tuple[str, dict[str, Any] | None]:
     raise ConfigError(f"env_wrapper entries are 'module.Class' or {{module.Class: {{kwargs}}}}, got {entry!r}")
 
 
-def load_config(path: str | Path, env_id: str = "PicoEscape-v0") -> TrainConfig:
-    """Read a training YAML; errors name the file and the key."""
+def load_config(path: str | Path, env_id: str | None = None) -> TrainConfig:
+    """Read a training YAML; errors name the file and the key.
+
+    `env_id`: the env block to read; by default the file's only block besides `pico-gym:`.
+    """
     path = Path(path)
     try:
         data = yaml.safe_load(path.read_text())
@@ -109,6 +112,11 @@ def load_config(path: str | Path, env_id: str = "PicoEscape-v0") -> TrainConfig:
         raise ConfigError(f"no training config at {path}") from None
     except yaml.YAMLError as exc:
         raise ConfigError(f"{path}: not valid YAML ({exc})") from None
+    if env_id is None and isinstance(data, dict):
+        blocks = [k for k in data if k not in (PICO_KEY, "run")]
+        if len(blocks) != 1:
+            raise ConfigError(f"{path}: expected one env block (rl-zoo3 layout, e.g. 'PicoEscape-v0:'), got {blocks}")
+        env_id = str(blocks[0])
     if not isinstance(data, dict) or env_id not in data:
         raise ConfigError(f"{path}: no block for {env_id!r} (rl-zoo3 layout: a top-level key per env id)")
     zoo = dict(data[env_id])
@@ -206,6 +214,18 @@ def train_env_kwargs(config: TrainConfig, index: int = 0) -> dict[str, Any]:
     return {**config.pico["env_kwargs"], **config.pico["train_env_kwargs"], **variant}
 
 
+def make_plain_env(config: TrainConfig, **kwargs: Any) -> gym.Env:
+    """An env for evaluation and demonstrations: `gym.make` with `kwargs`, plus the privileged
+    `PrivilegedPointGoal` when the policy sees a point goal (the training envs get it from the
+    config's env_wrapper list)."""
+    env = gym.make(config.env_id, **kwargs)
+    if config.learning.point_goal:
+        from pico_gym.wrappers import PrivilegedPointGoal
+
+        env = PrivilegedPointGoal(env)
+    return env
+
+
 def make_env(config: TrainConfig, rng: np.random.Generator, index: int = 0) -> gym.Env:
     """One training env: the env, per-episode training seeds, the config's wrappers, a Monitor."""
     from stable_baselines3.common.monitor import Monitor
@@ -268,7 +288,7 @@ def _callbacks() -> Any:
             self.config, self.run_dir, self.freq, self.episodes = config, run_dir, freq, episodes
             self.next_at = 0
             self.best = -np.inf
-            self.env = gym.make(config.env_id, **config.pico["env_kwargs"])
+            self.env = make_plain_env(config, **config.pico["env_kwargs"])
             self.csv = run_dir / "eval.csv"
             self.clock_before_s = 0.0  # the run's wall clock before this session (set by train)
 
@@ -340,7 +360,7 @@ def collect_demonstrations(config: TrainConfig, episodes: int, teacher: str = "c
     from pico_gym.agents import make_agent
     from pico_gym.wrappers import LearningEncoder, unit_action
 
-    env = gym.make(config.env_id, **{**config.pico["env_kwargs"], **config.pico["train_env_kwargs"]})
+    env = make_plain_env(config, **{**config.pico["env_kwargs"], **config.pico["train_env_kwargs"]})
     spec = RobotSpec.of(env)
     encoder = LearningEncoder(spec.lrf, spec.robot, spec.dt_s, config.learning)
     agent = make_agent(teacher, env)

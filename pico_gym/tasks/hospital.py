@@ -536,6 +536,11 @@ class HospitalTask(ConfiguredTask):
             reason = "idle"
         return StepOutcome(terms, reason, done)
 
+    @property
+    def next_target(self) -> Cabinet | None:
+        """The cabinet to visit next (privileged: the true task state), None once all are done."""
+        return self._targets[self._done] if self._done < len(self._targets) else None
+
     def info(self) -> dict[str, Any]:
         done = self._done
         n = len(self._targets)
