@@ -57,7 +57,9 @@ def make_agent(name: str, env: gym.Env, **kwargs: Any) -> Agent:
         return OraclePoseAgent(spec, env, **kwargs)
     if name == "ppo-pointgoal":
         if env_id != "PicoHospital-v0":
-            raise ValueError(f"the ppo-pointgoal agent (privileged point goal) plays PicoHospital-v0 only; got {env_id}")
+            raise ValueError(
+                f"the ppo-pointgoal agent (privileged point goal) plays PicoHospital-v0 only; got {env_id}"
+            )
         from pico_gym.agents.ppo import SHIPPED_POINTGOAL_POLICY, PpoAgent
         from pico_gym.wrappers import point_goal
 

@@ -344,7 +344,8 @@ class PrivilegedPointGoal(gym.Wrapper):
         task = getattr(env.unwrapped, "task", None)
         if not hasattr(type(task), "next_target"):
             raise ValueError(
-                f"PrivilegedPointGoal needs a task with a next target (PicoHospital-v0); got {type(env.unwrapped).__name__}"
+                "PrivilegedPointGoal needs a task with a next target (PicoHospital-v0); "
+                f"got {type(env.unwrapped).__name__}"
             )
         super().__init__(env)
         spaces = dict(env.observation_space.spaces)  # type: ignore[attr-defined]

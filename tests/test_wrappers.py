@@ -8,12 +8,12 @@ from gymnasium.wrappers import FlattenObservation, FrameStackObservation, Rescal
 
 import pico_gym  # noqa: F401
 from pico_gym.wrappers import (
+    POINT_GOAL_RANGE_M,
+    POINT_GOAL_SIZE,
     LearningConfig,
     LrfMemory,
     MinPoolLrf,
     OdomVelocity,
-    POINT_GOAL_RANGE_M,
-    POINT_GOAL_SIZE,
     PicoLearningWrapper,
     PrivilegedPointGoal,
     RangeMemory,
