@@ -124,7 +124,11 @@ def _cast(
     a_hi = beam_angles[n - 1]
     c = math.cos(theta)
     s = math.sin(theta)
-    for k in range(segments.shape[0]):
+    m = segments.shape[0]
+    if m >= _SORT_MIN_SEGMENTS:
+        _cast_sorted(x, y, c, s, segments, beam_angles, beam_cos, beam_sin, max_range, out, one_sided)
+        return
+    for k in range(m):
         # The segment in the sensor frame.
         wx1 = segments[k, 0] - x
         wy1 = segments[k, 1] - y
@@ -145,37 +149,128 @@ def _cast(
             t = min(1.0, max(0.0, -(x1 * ex + y1 * ey) / length_sq))
         px = x1 + t * ex
         py = y1 + t * ey
-        if px * px + py * py > max_range * max_range:
+        d_sq = px * px + py * py
+        if d_sq > max_range * max_range:
             continue
-        # The interval of bearings the segment covers, counter-clockwise from `start`.
-        b1 = math.atan2(y1, x1)
-        b2 = math.atan2(y2, x2)
-        span = b2 - b1
-        if span > math.pi:
-            span -= 2.0 * math.pi
-        elif span < -math.pi:
-            span += 2.0 * math.pi
-        start = b1
-        if span < 0.0:
-            start = b2
-            span = -span
-        cross_p1_e = x1 * ey - y1 * ex
-        for shift in (-2.0 * math.pi, 0.0, 2.0 * math.pi):
-            lo = start + shift - 1e-12
-            hi = start + shift + span + 1e-12
-            if hi < a_lo or lo > a_hi:
+        _cast_one(x1, y1, x2, y2, 0.0, beam_angles, beam_cos, beam_sin, a_lo, a_hi, out)
+
+
+@njit
+def _cast_sorted(
+    x: float,
+    y: float,
+    c: float,
+    s: float,
+    segments: Segments,
+    beam_angles: FloatArray,
+    beam_cos: FloatArray,
+    beam_sin: FloatArray,
+    max_range: float,
+    out: FloatArray,
+    one_sided: np.ndarray,
+) -> None:
+    """`_cast` for many segments (a building, not a room): nearest first, so that segments hidden
+    behind nearer ones find their beams already shorter than their nearest point and are skipped.
+    The bound's margin covers the rounding of r and of the distance, so the ranges are exactly
+    those of casting every segment."""
+    culling = one_sided.shape[0] > 0
+    a_lo = beam_angles[0]
+    a_hi = beam_angles[beam_angles.shape[0] - 1]
+    m = segments.shape[0]
+    local = np.empty((m, 4))
+    nearest = np.empty(m)
+    kept = 0
+    for k in range(m):
+        wx1 = segments[k, 0] - x
+        wy1 = segments[k, 1] - y
+        wx2 = segments[k, 2] - x
+        wy2 = segments[k, 3] - y
+        x1 = c * wx1 + s * wy1
+        y1 = -s * wx1 + c * wy1
+        x2 = c * wx2 + s * wy2
+        y2 = -s * wx2 + c * wy2
+        ex = x2 - x1
+        ey = y2 - y1
+        if culling and one_sided[k] and x1 * ey - y1 * ex <= 0.0:
+            continue
+        length_sq = ex * ex + ey * ey
+        t = 0.0
+        if length_sq > 0.0:
+            t = min(1.0, max(0.0, -(x1 * ex + y1 * ey) / length_sq))
+        px = x1 + t * ex
+        py = y1 + t * ey
+        d_sq = px * px + py * py
+        if d_sq > max_range * max_range:
+            continue
+        local[kept, 0] = x1
+        local[kept, 1] = y1
+        local[kept, 2] = x2
+        local[kept, 3] = y2
+        nearest[kept] = d_sq
+        kept += 1
+    order = np.argsort(nearest[:kept])
+    for j in range(kept):
+        k = order[j]
+        bound = math.sqrt(nearest[k]) * (1.0 - 1e-9)
+        _cast_one(
+            local[k, 0], local[k, 1], local[k, 2], local[k, 3], bound, beam_angles, beam_cos, beam_sin, a_lo, a_hi, out
+        )
+
+
+# From this many segments `_cast` sorts them near to far (measured: it pays on the hospitals'
+# 60-70 segments, not on an escape room's 10-20).
+_SORT_MIN_SEGMENTS = 32
+
+
+@njit
+def _cast_one(
+    x1: float,
+    y1: float,
+    x2: float,
+    y2: float,
+    bound: float,
+    beam_angles: FloatArray,
+    beam_cos: FloatArray,
+    beam_sin: FloatArray,
+    a_lo: float,
+    a_hi: float,
+    out: FloatArray,
+) -> None:
+    """One segment (sensor frame) into `out`; beams already shorter than `bound` are skipped."""
+    ex = x2 - x1
+    ey = y2 - y1
+    # The interval of bearings the segment covers, counter-clockwise from `start`.
+    b1 = math.atan2(y1, x1)
+    b2 = math.atan2(y2, x2)
+    span = b2 - b1
+    if span > math.pi:
+        span -= 2.0 * math.pi
+    elif span < -math.pi:
+        span += 2.0 * math.pi
+    start = b1
+    if span < 0.0:
+        start = b2
+        span = -span
+    cross_p1_e = x1 * ey - y1 * ex
+    for shift in (-2.0 * math.pi, 0.0, 2.0 * math.pi):
+        lo = start + shift - 1e-12
+        hi = start + shift + span + 1e-12
+        if hi < a_lo or lo > a_hi:
+            continue
+        i0 = np.searchsorted(beam_angles, lo, side="left")
+        i1 = np.searchsorted(beam_angles, hi, side="right")
+        for i in range(i0, i1):
+            if out[i] < bound:
+                continue  # occluded: this segment cannot be nearer
+            dc = beam_cos[i]
+            ds = beam_sin[i]
+            denom = dc * ey - ds * ex
+            if denom == 0.0:
                 continue
-            i0 = np.searchsorted(beam_angles, lo, side="left")
-            i1 = np.searchsorted(beam_angles, hi, side="right")
-            for i in range(i0, i1):
-                dc = beam_cos[i]
-                ds = beam_sin[i]
-                denom = dc * ey - ds * ex
-                if denom == 0.0:
-                    continue
-                r = cross_p1_e / denom
+            r = cross_p1_e / denom
+            if r > 0.0 and r < out[i]:  # most beams of a cluttered view are already shorter
                 u = (x1 * ds - y1 * dc) / denom
-                if r > 0.0 and -_ENDPOINT_TOL <= u <= 1.0 + _ENDPOINT_TOL and r < out[i]:
+                if -_ENDPOINT_TOL <= u <= 1.0 + _ENDPOINT_TOL:
                     out[i] = r
 
 
