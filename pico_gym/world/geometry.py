@@ -143,18 +143,25 @@ def polygon_clearance(polygon: FloatArray, segments: Segments, limit: float = ma
     """Distance from a closed polygon to the nearest segment; 0 when any segment touches it.
 
     A segment lying entirely inside the polygon counts as touching. Segments whose bounding box is
-    farther than `limit` from the polygon's bounding box are skipped, so the answer is exact when it
-    is below `limit` and at least `limit` otherwise.
+    farther than `limit` (or than the nearest segment so far) from the polygon's bounding box are
+    skipped, so the answer is exact when it is below `limit` and at least `limit` otherwise.
     """
     n = polygon.shape[0]
-    min_x = polygon[:, 0].min() - limit
-    max_x = polygon[:, 0].max() + limit
-    min_y = polygon[:, 1].min() - limit
-    max_y = polygon[:, 1].max() + limit
+    p_min_x = polygon[:, 0].min()
+    p_max_x = polygon[:, 0].max()
+    p_min_y = polygon[:, 1].min()
+    p_max_y = polygon[:, 1].max()
     best = limit
     for s in range(segments.shape[0]):
         x1, y1, x2, y2 = segments[s, 0], segments[s, 1], segments[s, 2], segments[s, 3]
-        if max(x1, x2) < min_x or min(x1, x2) > max_x or max(y1, y2) < min_y or min(y1, y2) > max_y:
+        # The gap between the bounding boxes is a lower bound of the distance: a segment farther
+        # than the nearest so far cannot be nearer (the answer is the same as without the test).
+        if (
+            max(x1, x2) < p_min_x - best
+            or min(x1, x2) > p_max_x + best
+            or max(y1, y2) < p_min_y - best
+            or min(y1, y2) > p_max_y + best
+        ):
             continue
         if point_in_polygon(x1, y1, polygon):
             return 0.0
