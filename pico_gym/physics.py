@@ -115,6 +115,33 @@ class PhysicsConfig:
             )
 
 
+class StaticShapePool:
+    """pymunk segments kept from one episode's physics for the next one's.
+
+    Making a pymunk shape costs more than all of chipmunk's own work on it (pymunk's attribute
+    checks): on a fixed map most of an episode's static segments are the last episode's, so an
+    env hands its physics' shapes back at reset (`Physics.release`) and the next physics takes
+    the equal ones (same end points and kind, in the same order, so chipmunk numbers them as it
+    would new ones). Shapes not taken again are dropped at the next `give`: the pool never holds
+    more than one episode's shapes.
+    """
+
+    def __init__(self) -> None:
+        self.body = pymunk.Body(body_type=pymunk.Body.STATIC)
+        self._free: dict[tuple[float, float, float, float, int], list[pymunk.Segment]] = {}
+
+    def take(self, x1: float, y1: float, x2: float, y2: float, kind: int) -> pymunk.Segment | None:
+        shapes = self._free.get((x1, y1, x2, y2, kind))
+        return shapes.pop() if shapes else None
+
+    def give(self, shapes: list[pymunk.Segment], keys: list[tuple[float, float, float, float, int]]) -> None:
+        """Keep `shapes` (made for the segments and kinds `keys`) for the next `take`s."""
+        free: dict[tuple[float, float, float, float, int], list[pymunk.Segment]] = {}
+        for shape, key in zip(reversed(shapes), reversed(keys), strict=True):  # take() pops: the first one first
+            free.setdefault(key, []).append(shape)
+        self._free = free
+
+
 class Physics:
     """One episode's pymunk world with the robot in it.
 
@@ -141,8 +168,10 @@ class Physics:
         pose: Pose,
         kinds: np.ndarray | None = None,
         scene: Scene | None = None,
+        pool: StaticShapePool | None = None,
     ) -> None:
         self.config = config
+        self._pool = pool
         self.robot = robot
         self.scene = scene
         self._circumradius_m = robot.circumradius_m  # a property that walks the outline: once
@@ -156,6 +185,10 @@ class Physics:
         space.iterations = config.iterations
         space.collision_slop = config.collision_slop_m
         self.space = space
+        self._static_shapes: list[pymunk.Segment] = []
+        self._static_keys: list[tuple[float, float, float, float, int]] = []
+        if pool is not None:
+            space.add(pool.body)
         self._segments = np.zeros((0, 4))
         self.add_static(segments, kinds)
         self._mover_bodies: list[pymunk.Body] = []
@@ -226,18 +259,39 @@ class Physics:
         self._near = np.empty_like(self._segments)  # the segments a contact step may reach
         self._near_n = 0
         codes = np.full(len(segments), WALL, dtype=np.int8) if kinds is None else kinds
+        pool = self._pool
         shapes = []
-        for (x1, y1, x2, y2), kind in zip(segments.tolist(), codes, strict=True):
-            wall = pymunk.Segment(self.space.static_body, (x1, y1), (x2, y2), 0.0)  # friction: pymunk's 0
-            wall.collision_type = _KIND_BASE + int(kind)
+        keys = [
+            (x1, y1, x2, y2, kind) for (x1, y1, x2, y2), kind in zip(segments.tolist(), codes.tolist(), strict=True)
+        ]
+        for x1, y1, x2, y2, kind in keys:
+            wall = pool.take(x1, y1, x2, y2, kind) if pool is not None else None
+            if wall is None:
+                body = pool.body if pool is not None else self.space.static_body
+                wall = pymunk.Segment(body, (x1, y1), (x2, y2), 0.0)  # friction: pymunk's 0
+                wall.collision_type = _KIND_BASE + int(kind)
             shapes.append(wall)
         if shapes:
             self.space.add(*shapes)
+            self._static_shapes += shapes
+            self._static_keys += keys
+
+    def release(self) -> None:
+        """Hand the static shapes back to the pool (for the next episode's physics); this physics
+        must not step again."""
+        if self._pool is None or not self._static_shapes:
+            return
+        self.space.remove(*self._static_shapes)
+        self.space.remove(self._pool.body)
+        self._pool.give(self._static_shapes, self._static_keys)
+        self._static_shapes, self._static_keys = [], []
 
     @classmethod
-    def from_scene(cls, scene: Scene, robot: RobotConfig, config: PhysicsConfig, pose: Pose) -> Physics:
+    def from_scene(
+        cls, scene: Scene, robot: RobotConfig, config: PhysicsConfig, pose: Pose, pool: StaticShapePool | None = None
+    ) -> Physics:
         """The physics of an episode's scene (static geometry by kind, movers as kinematic boxes)."""
-        return cls(scene.static_solid, robot, config, pose, scene.static_kinds, scene)
+        return cls(scene.static_solid, robot, config, pose, scene.static_kinds, scene, pool)
 
     def _begin(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data: object) -> None:
         if self.contacts == 0 and self.time_s - self._contact_ended_s >= self.config.bump_debounce_s:

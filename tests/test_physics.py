@@ -161,3 +161,31 @@ def test_a_contact_never_turns_or_moves_the_robot_past_its_caps() -> None:
             turn = abs(math.remainder(after.theta - before.theta, 2.0 * math.pi))
             assert turn <= robot.max_turn_rate_radps * dt * (1.0 + 1e-6), (seed, turn)
             assert math.hypot(after.x - before.x, after.y - before.y) <= speed * dt * (1.0 + 1e-6), seed
+
+
+@pytest.mark.parametrize("kwargs", [{"map": "hospital_2019", "n_boxes": (2, 2), "n_movers": (1, 1)}, {}])
+def test_an_env_reusing_its_static_shapes_plays_as_a_fresh_one(kwargs: dict) -> None:
+    """The env hands its physics' static shapes to the next episode's (StaticShapePool): an
+    episode after others on the same env is bit for bit the episode of a fresh env."""
+    import gymnasium as gym
+
+    import pico_gym  # noqa: F401
+
+    def play(env: gym.Env, seed: int) -> list[bytes]:
+        env.reset(seed=seed)
+        rng = np.random.default_rng(seed)
+        out = []
+        for _ in range(120):
+            action = rng.uniform(-1.0, 1.0, 3) * [0.5, 0.5, 1.2]
+            obs, _, terminated, truncated, info = env.step(action)
+            out += [obs["lrf"].tobytes(), np.array(info["pose"]).tobytes(), bytes([info["bumps"]])]
+            if terminated or truncated:
+                break
+        return out
+
+    used = gym.make("PicoHospital-v0", **kwargs)
+    for seed in (1, 2, 3):
+        play(used, seed)
+    pooled = used.unwrapped._shape_pool
+    assert pooled is not None
+    assert play(used, 4) == play(gym.make("PicoHospital-v0", **kwargs), 4)

@@ -21,7 +21,7 @@ import numpy as np
 from pico_gym.config import with_overrides
 from pico_gym.extras import require
 from pico_gym.overlay import Overlay
-from pico_gym.physics import Physics, PhysicsConfig
+from pico_gym.physics import Physics, PhysicsConfig, StaticShapePool
 from pico_gym.robot import RobotConfig, clip_twist
 from pico_gym.sensors.lrf import Lrf, LrfConfig
 from pico_gym.sensors.odometry import Odometry, OdometryConfig
@@ -137,6 +137,8 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self._idle = IdleTimer(task.idle_rule)
         self._on_scan = getattr(task, "on_scan", None)
         self.episode: Episode | None = None
+        self.physics: Physics | None = None  # type: ignore[assignment]
+        self._shape_pool = StaticShapePool()
         self._finished = False
 
     # --- the episode ---------------------------------------------------------------------
@@ -178,7 +180,9 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self._use_scene(scene)
         self._movers = scene.mover_segments if scene.has_movers else None
         self._mover_speed = scene.max_mover_speed_mps
-        self.physics = Physics.from_scene(scene, self.config.robot, self.config.physics, ep.start)
+        if self.physics is not None:
+            self.physics.release()  # its static shapes, for this episode's physics
+        self.physics = Physics.from_scene(scene, self.config.robot, self.config.physics, ep.start, self._shape_pool)
         self._excused = [0] * len(KINDS)  # contacts the task's rules excused, by kind
         self._n_excused = 0
         odom0 = self.odometry.reset(self.np_random)
