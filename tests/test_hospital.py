@@ -537,3 +537,20 @@ def test_back_face_culling_on_fitted_outlines_gives_the_same_scans() -> None:
         culled = lrf_ranges(pose, scene.static_seen, angles, one_sided=scene.static_one_sided)
         np.testing.assert_array_equal(plain, culled)
         checked += 1
+
+
+def test_the_facing_shaping_term_pays_turning_to_face_in_the_square():
+    env = gym.make("PicoHospital-v0", map="hospital_2019", n_cabinets=1, rewards={"facing": 2.0}, noise_m=0.0)
+    env.reset(seed=0, options={"cabinet_order": [0], "closed_doors": []})
+    target = env.unwrapped.task.next_target
+    x, y = target.dock_point()
+    env.reset(seed=0, options={"cabinet_order": [0], "closed_doors": [], "start_pose": (x, y, target.facing_rad - 0.6)})
+    before = env.unwrapped.task._arrival_parts[2]
+    _, _, _, _, info = env.step(np.array([0.0, 0.0, 1.0]))
+    after = info["arrival"]["heading_error"]
+    assert after < before
+    assert info["reward_terms"]["facing"] == pytest.approx(2.0 * (before - after))
+    # off by default: the term is there and 0
+    plain = gym.make("PicoHospital-v0", map="hospital_2019", n_cabinets=1)
+    plain.reset(seed=0, options={"cabinet_order": [0], "start_pose": (x, y, target.facing_rad - 0.6)})
+    assert plain.step(np.array([0.0, 0.0, 1.0]))[4]["reward_terms"]["facing"] == 0.0

@@ -45,8 +45,10 @@ class PicoHospitalEnv(PicoEnv):
     Named terms (`info["reward_terms"]`, weights `rewards=`): `progress` (metres of decrease of the
     geodesic distance to the next arrival square; one field per target, computed at reset on the
     true static world with the episode's closed doors and boxes), `cabinet` (+10 per cabinet
-    counted), `bump` (-10 per bump), `time` (-0.1 per second), `false_announce` (-1 each).
-    `info["cost"]` (Safety Gym's convention): 1 per bump plus 1 per second within 0.1 m of anything.
+    counted), `bump` (-10 per bump), `time` (-0.1 per second), `false_announce` (-1 each), and
+    `facing` (weight 0 by default: potential-based shaping of turning to face the cabinet while
+    in its square, see `HospitalRewardWeights`). `info["cost"]` (Safety Gym's convention): 1 per
+    bump plus 1 per second within 0.1 m of anything.
 
     ## Arrival
     The robot's centre in the cabinet's arrival square and its heading within

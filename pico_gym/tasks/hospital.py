@@ -56,6 +56,10 @@ class HospitalRewardWeights:
         bump: per bump.
         time: per second of simulated time.
         false_announce: per announcement that did not satisfy the arrival rule.
+        facing: potential-based shaping of facing the cabinet (0 by default): the potential is
+            minus the heading error [rad] while the robot's centre is in the arrival square and
+            -pi outside it, so turning to face in the square pays, and the term sums to a
+            constant over an episode's legs (Ng et al., 1999: it leaves the optimal policy alone).
     """
 
     progress: float = 1.0
@@ -63,9 +67,10 @@ class HospitalRewardWeights:
     bump: float = 10.0
     time: float = 0.1
     false_announce: float = 1.0
+    facing: float = 0.0
 
     def __post_init__(self) -> None:
-        for name in ("progress", "cabinet", "bump", "time", "false_announce"):
+        for name in ("progress", "cabinet", "bump", "time", "false_announce", "facing"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
                 raise ValueError(f"HospitalRewardWeights.{name} must be a finite number, got {value!r}")
@@ -492,9 +497,12 @@ class HospitalTask(ConfiguredTask):
         arrived_now = False
         false_now = 0
         progress = 0.0
+        facing = 0.0
         if target is not None:
             progress = self._progress.update(pose)
             arrived, distance, error = target.arrival(pose, cfg.facing_tolerance_rad)
+            _, distance_before, error_before = self._arrival_parts
+            facing = _facing_potential(distance, error) - _facing_potential(distance_before, error_before)
             self._arrival_parts = (arrived, distance, error)
             if cfg.arrival == "dwell":
                 moved = math.hypot(pose.x - ctx.pose_before.x, pose.y - ctx.pose_before.y)
@@ -524,6 +532,7 @@ class HospitalTask(ConfiguredTask):
             "bump": -w.bump * ctx.new_bumps,
             "time": -w.time * ctx.dt_s,
             "false_announce": -w.false_announce * false_now,
+            "facing": w.facing * facing,
         }
         reason = None
         if done:
@@ -563,6 +572,11 @@ class HospitalTask(ConfiguredTask):
         for k, cab in enumerate(self._targets):
             squares.append((cab.square, str(k + 1), k < self._done))
         return {"squares": squares, "status": f"cabinets {self._done}/{len(self._targets)}"}
+
+
+def _facing_potential(distance_to_square: float, heading_error: float) -> float:
+    """The `facing` shaping potential: minus the heading error in the arrival square, -pi outside."""
+    return -heading_error if distance_to_square == 0.0 else -math.pi
 
 
 def _cell(grid: Grid, x: float, y: float) -> tuple[int, int]:
