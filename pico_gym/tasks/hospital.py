@@ -505,10 +505,12 @@ class HospitalTask(ConfiguredTask):
             facing = _facing_potential(distance, error) - _facing_potential(distance_before, error_before)
             self._arrival_parts = (arrived, distance, error)
             if cfg.arrival == "dwell":
-                moved = math.hypot(pose.x - ctx.pose_before.x, pose.y - ctx.pose_before.y)
-                turned = abs(geometry.wrap_angle(pose.theta - ctx.pose_before.theta))
-                still = moved < cfg.dwell_speed_mps * ctx.dt_s and turned < cfg.dwell_turn_rate_radps * ctx.dt_s
-                self._dwell = self._dwell + ctx.dt_s if (arrived and still) else 0.0
+                still = False
+                if arrived:  # (how far it moved matters only there)
+                    moved = math.hypot(pose.x - ctx.pose_before.x, pose.y - ctx.pose_before.y)
+                    turned = abs(geometry.wrap_angle(pose.theta - ctx.pose_before.theta))
+                    still = moved < cfg.dwell_speed_mps * ctx.dt_s and turned < cfg.dwell_turn_rate_radps * ctx.dt_s
+                self._dwell = self._dwell + ctx.dt_s if still else 0.0
                 arrived_now = self._dwell >= cfg.dwell_s - 1e-9
             elif ctx.extras[0] > 0.0:
                 if arrived:

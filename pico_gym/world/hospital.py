@@ -66,14 +66,12 @@ class Cabinet:
     @property
     def side_m(self) -> float:
         """The front's length: the arrival square's side."""
-        return float(np.hypot(*(self.front[1] - self.front[0])))
+        return self._side  # type: ignore[attr-defined]
 
     @property
     def square(self) -> FloatArray:
         """(4, 2) corners of the arrival square in front of the front."""
-        a, b = self.front
-        out = self.normal * self.side_m
-        return np.array([a, b, b + out, a + out])
+        return self._square.copy()  # type: ignore[attr-defined]
 
     @property
     def facing_rad(self) -> float:
@@ -82,11 +80,16 @@ class Cabinet:
 
     def dock_point(self, depth_m: float = 0.3) -> FloatArray:
         """A point on the square's centre line `depth_m` from the front (where the best poses are)."""
-        return self.front.mean(axis=0) + self.normal * min(depth_m, 0.75 * self.side_m)
+        return self._middle + self.normal * min(depth_m, 0.75 * self._side)  # type: ignore[attr-defined]
 
     def __post_init__(self) -> None:
         a, b = self.front
         side = float(np.hypot(*(b - a)))
+        # Computed once: resets ask for these many times (the same values as computing them anew).
+        object.__setattr__(self, "_side", side)
+        object.__setattr__(self, "_middle", self.front.mean(axis=0))
+        out = self.normal * side
+        object.__setattr__(self, "_square", np.array([a, b, b + out, a + out]))
         # Plain floats for the per-step predicate: a, the unit front direction, the normal, the side.
         frame = (float(a[0]), float(a[1]), float((b[0] - a[0]) / side), float((b[1] - a[1]) / side))
         object.__setattr__(self, "_frame", (*frame, float(self.normal[0]), float(self.normal[1]), side))
