@@ -223,8 +223,7 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         bumps_before = physics.bumps
         true_vx, true_vy, true_w = self.odometry.true_twist(vx, vy, w, dt, self.np_random)
         # Movers may close in during the step: the free-space shortcut needs room for that too.
-        room = self._clearance - self._mover_speed * dt if self._movers is not None else self._clearance
-        physics.step(true_vx, true_vy, true_w, dt, room)
+        physics.step(true_vx, true_vy, true_w, dt, self._room)
         self.odometry.advance(vx, vy, w, dt)
         previous, pose = self._pose, physics.pose
         self._pose = pose
@@ -322,14 +321,17 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         return a[:3], extras
 
     def _footprint_clearance(self, pose: Pose) -> float:
+        """The footprint's clearance to everything solid (capped); also keeps the room the next
+        step has before anything can touch it: the clearance to static geometry, and to the
+        movers less how far they may come in one step."""
         x, y, th = pose
-        clearance = geometry.footprint_clearance(x, y, th, self._outline, self._solid, CLEARANCE_CAP_M)
+        clearance = float(geometry.footprint_clearance(x, y, th, self._outline, self._solid, CLEARANCE_CAP_M))
+        self._room = clearance
         if self._movers is not None:
-            clearance = min(
-                clearance,
-                geometry.footprint_clearance(x, y, th, self._outline, self._movers, CLEARANCE_CAP_M),
-            )
-        return float(clearance)
+            to_movers = float(geometry.footprint_clearance(x, y, th, self._outline, self._movers, CLEARANCE_CAP_M))
+            self._room = min(clearance, to_movers - self._mover_speed * self.config.dt_s)
+            clearance = min(clearance, to_movers)
+        return clearance
 
     def _observation(self) -> dict[str, np.ndarray]:
         return {"lrf": self.last_scan, "odom": np.array(self.odometry.pose, dtype=np.float32)}
