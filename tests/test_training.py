@@ -273,6 +273,20 @@ def test_the_hospital_point_goal_config_trains_evaluates_and_acts(tmp_path):
     assert record.time_s > 0
     with pytest.raises(ValueError, match="PicoHospital-v0 only"):
         make_agent("ppo-pointgoal", gym.make("PicoEscape-v0"), path=path)
+    # shipping it writes the arrays, the metadata and a card that says what it sees
+    from dataclasses import replace
+
+    from pico_gym.train.ship import TARGETS, ship
+
+    target = replace(
+        TARGETS["hospital-pointgoal"], policy=tmp_path / "models" / "pg.npz", card=tmp_path / "models" / "CARD.md"
+    )
+    (tmp_path / "models").mkdir()
+    ship(path, episodes=2, seed=5, target=target)
+    card = target.card.read_text()
+    assert "PRIVILEGED" in card and "ppo-pointgoal" in card and "success >= 80 %" in card
+    shipped = make_agent("ppo-pointgoal", env, path=target.policy)
+    assert run_episode(env, shipped, 3, "ppo-pointgoal").time_s == record.time_s
 
 
 def test_a_config_with_two_env_blocks_is_refused(tmp_path):

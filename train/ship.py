@@ -1,11 +1,13 @@
-"""Ship a trained policy as the PPO agent's default, with a model card of measured numbers.
+"""Ship a trained policy as an agent's default, with a model card of measured numbers.
 
     python -m pico_gym.train.ship runs/ppo_escape_seed0/best.zip [--episodes 500] [--seed 1000]
+    python -m pico_gym.train.ship runs/hosp/best.zip --target hospital-pointgoal --episodes 100
 
-copies the policy to agents/models/ppo_escape.{zip,json}, evaluates it with `pico-gym bench`'s
-machinery on generated rooms it never trained on (and, for the realism row, with LRF noise doubled
-and odometry slip), and writes agents/models/MODEL_CARD.md. The JSON keeps the card's numbers and
-a short check (`check`: the first seeds' results) that tests/test_ppo_model.py reproduces.
+copies the policy to agents/models/<name>.{zip,json,npz} (`ppo_escape` for the PPO agent,
+`ppo_hospital_pointgoal` for the privileged end-to-end hospital baseline `ppo-pointgoal`),
+evaluates it with `pico-gym bench`'s machinery on episodes it never trained on (for the escape, a
+realism row too: LRF noise doubled and odometry slip), and writes its model card. The JSON keeps
+the card's numbers and a short check (`check`: the first seeds' results) that the tests reproduce.
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ import json
 import re
 import shutil
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -23,17 +26,53 @@ import yaml
 
 from pico_gym.agents.evaluation import Summary, run_episodes, summarize
 from pico_gym.agents.mlp import export_actor
-from pico_gym.agents.ppo import SHIPPED_MODEL, SHIPPED_POLICY, load_policy, policy_metadata_path
+from pico_gym.agents.ppo import SHIPPED_POINTGOAL_POLICY, SHIPPED_POLICY, load_policy, policy_metadata_path
 
 CHECK_EPISODES = 20
 REALISM = {"noise_m": 0.02, "slip_std": 0.05}
 
 
-def _evaluate(path: Path, seeds: range, env_kwargs: dict[str, Any]) -> tuple[Summary, list[Any]]:
+@dataclass(frozen=True)
+class Target:
+    """Where a shipped policy goes and how its card reads."""
+
+    agent: str  # the make_agent name that loads it
+    policy: Path  # its .npz (the .zip and .json beside it)
+    card: Path
+    env_id: str
+    trained_on: str
+    success_target: float
+    bump_target: float | None
+    realism: bool
+    privileged: str = ""
+
+    @property
+    def model(self) -> Path:
+        return self.policy.with_suffix(".zip")
+
+
+TARGETS = {
+    "escape": Target(
+        "ppo", SHIPPED_POLICY, SHIPPED_POLICY.parent / "MODEL_CARD.md", "PicoEscape-v0",
+        "PicoEscape-v0's generated rooms", 0.95, 0.02, True,
+    ),
+    "hospital-pointgoal": Target(
+        "ppo-pointgoal", SHIPPED_POINTGOAL_POLICY, SHIPPED_POINTGOAL_POLICY.parent / "HOSPITAL_POINTGOAL_CARD.md",
+        "PicoHospital-v0", "PicoHospital-v0's generated hospitals", 0.80, None, False,
+        privileged="PRIVILEGED: it sees the range and bearing to the next arrival square and the heading error to "
+        "facing its cabinet, from the true pose (`pico_gym.wrappers.PrivilegedPointGoal`, Habitat PointNav's "
+        "convention). A baseline for RL research, never a course agent (`PRIVILEGED_AGENTS`).",
+    ),
+}  # fmt: skip
+
+
+def _evaluate(target: Target, seeds: range, env_kwargs: dict[str, Any]) -> tuple[Summary, list[Any]]:
     from tqdm import tqdm
 
-    with tqdm(total=len(seeds), desc="ppo", unit="ep", file=sys.stderr) as bar:
-        records = run_episodes("ppo", seeds, env_kwargs, {"path": str(path)}, progress=bar.update)
+    with tqdm(total=len(seeds), desc=target.agent, unit="ep", file=sys.stderr) as bar:
+        records = run_episodes(
+            target.agent, seeds, env_kwargs, {"path": str(target.policy)}, progress=bar.update, env_id=target.env_id
+        )
     return summarize(records), records
 
 
@@ -93,7 +132,10 @@ def ship(
     reproduce: list[str] | None = None,
     picked: str = "",
     note: str = "",
+    target: Target = TARGETS["escape"],
 ) -> Path:
+    SHIPPED_MODEL, SHIPPED_POLICY = target.model, target.policy  # noqa: N806
+    realism = realism and target.realism
     run_dir = source.parent.parent if source.parent.name == "checkpoints" else source.parent
     config = yaml.safe_load((run_dir / "config.yaml").read_text())
     done = json.loads((run_dir / "done.json").read_text()) if (run_dir / "done.json").exists() else {}
@@ -128,11 +170,11 @@ def ship(
     export_actor(model, meta.get("obs_norm")).save(SHIPPED_POLICY)
 
     seeds = range(seed, seed + episodes)
-    summary, records = _evaluate(SHIPPED_POLICY, seeds, meta.get("env_kwargs") or {})
-    rows = [_row("generated rooms", summary)]
+    summary, records = _evaluate(target, seeds, meta.get("env_kwargs") or {})
+    rows = [_row("generated " + ("rooms" if target.env_id == "PicoEscape-v0" else "hospitals"), summary)]
     evaluation = {"generated": {"seeds": [seeds[0], seeds[-1]], **summary.to_dict()}}
     if realism:
-        hard, _ = _evaluate(SHIPPED_POLICY, seeds, {**(meta.get("env_kwargs") or {}), **REALISM})
+        hard, _ = _evaluate(target, seeds, {**(meta.get("env_kwargs") or {}), **REALISM})
         rows.append(_row("noise x2 + slip", hard))
         evaluation["realism"] = {"seeds": [seeds[0], seeds[-1]], "env_kwargs": REALISM, **hard.to_dict()}
     check = records[:CHECK_EPISODES]
@@ -153,27 +195,37 @@ def ship(
         },
     )
     policy_metadata_path(SHIPPED_MODEL).write_text(json.dumps(meta, indent=1, default=str) + "\n")
-    _write_card(meta, config, rows, SHIPPED_MODEL.parent / "MODEL_CARD.md")
+    _write_card(meta, config, rows, target)
     return SHIPPED_MODEL
 
 
-def _write_card(meta: dict[str, Any], config: dict[str, Any], rows: list[str], out: Path) -> None:
+def _write_card(meta: dict[str, Any], config: dict[str, Any], rows: list[str], target: Target) -> None:
     run = config.pop("run", {})
     minutes = (meta.get("wall_clock_s") or 0) / 60
+    name = target.policy.stem
+    generated = meta["evaluation"]["generated"]
+    targets = f"success >= {100 * target.success_target:.0f} % (" + (
+        "met" if generated["success_rate"] >= target.success_target else "NOT met"
+    )
+    if target.bump_target is not None:
+        targets += f"), bump rate <= {100 * target.bump_target:.0f} % (" + (
+            "met" if generated["bump_rate"] <= target.bump_target else "NOT met"
+        )
     lines = [
-        "# Model card: `ppo_escape` (the PPO agent's shipped policy)",
+        f"# Model card: `{name}` (the `{target.agent}` agent's shipped policy)",
         "",
         "Written by `python -m pico_gym.train.ship` from measured runs; do not edit the numbers by hand.",
         "",
         "## What it is",
         f"- PPO (stable-baselines3 {run.get('versions', {}).get('stable-baselines3', '?')}), MLP policy, "
-        f"trained on PicoEscape-v0's generated rooms (seeds >= 1,000,000).",
+        f"trained on {target.trained_on} (seeds >= 1,000,000), env kwargs {meta.get('env_kwargs') or {}}.",
+        *([f"- {target.privileged}"] if target.privileged else []),
         "- Observation: `PicoLearningWrapper("
         + ", ".join(f"{k}={v!r}" for k, v in meta["learning"].items())
         + ")` (min-pooled LRF sectors, 360-degree range memory, odometry velocity, frame stack); "
         "actions in [-1, 1] rescaled to the robot's limits.",
-        '- Loads with `make_agent("ppo", env)` from `ppo_escape.npz` (the actor as plain arrays, numpy only, '
-        "loaded with pickling off); `ppo_escape.zip` is the stable-baselines3 training artefact (needs torch, "
+        f'- Loads with `make_agent("{target.agent}", env)` from `{name}.npz` (the actor as plain arrays, numpy '
+        f"only, loaded with pickling off); `{name}.zip` is the stable-baselines3 training artefact (needs torch, "
         "the `train` extra). A zip or pickle runs code when loaded: use only files from a source you trust.",
         "",
         "## How it was trained",
@@ -184,7 +236,9 @@ def _write_card(meta: dict[str, Any], config: dict[str, Any], rows: list[str], o
         f"evaluations) on {run.get('versions', {}).get('machine', '?')}"
         + (f"; {meta['wall_clock_note']}" if meta.get("wall_clock_note") else ""),
         f"- Picked: `{Path(meta['source']).name}` of the run: {meta.get('picked') or 'by hand'}.",
-        "- Learning curve: [docs/ppo_learning_curve.png](../../docs/ppo_learning_curve.png)",
+        f"- Learning curve: [docs/{name}_learning_curve.png](../../docs/{name}_learning_curve.png)"
+        if name != "ppo_escape"
+        else "- Learning curve: [docs/ppo_learning_curve.png](../../docs/ppo_learning_curve.png)",
         "",
         "To reproduce (same configs, in this repository):",
         "",
@@ -199,12 +253,7 @@ def _write_card(meta: dict[str, Any], config: dict[str, Any], rows: list[str], o
         "|---|---:|---:|---:|---:|---:|---:|---:|---:|",
         *rows,
         "",
-        f"Seeds {meta['evaluation']['generated']['seeds'][0]}-{meta['evaluation']['generated']['seeds'][1]}; "
-        "targets: success >= 95 % ("
-        + ("met" if meta["evaluation"]["generated"]["success_rate"] >= 0.95 else "NOT met")
-        + "), bump rate <= 2 % ("
-        + ("met" if meta["evaluation"]["generated"]["bump_rate"] <= 0.02 else "NOT met")
-        + ").",
+        f"Seeds {generated['seeds'][0]}-{generated['seeds'][1]}; targets: {targets}).",
         "",
         "## Config",
         "```yaml",
@@ -212,7 +261,7 @@ def _write_card(meta: dict[str, Any], config: dict[str, Any], rows: list[str], o
         "```",
         "",
     ]
-    out.write_text("\n".join(lines))
+    target.card.write_text("\n".join(lines))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -224,6 +273,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--reproduce", action="append", help="a command reproducing the run (repeatable)")
     p.add_argument("--picked", default="", help="how this policy was chosen among the run's")
     p.add_argument("--wall-clock-note", default="", help="context for the wall-clock figure")
+    p.add_argument("--target", choices=sorted(TARGETS), default="escape", help="which agent's policy this is")
     args = p.parse_args(argv)
     path = ship(
         args.policy,
@@ -233,8 +283,9 @@ def main(argv: list[str] | None = None) -> int:
         reproduce=args.reproduce,
         picked=args.picked,
         note=args.wall_clock_note,
+        target=TARGETS[args.target],
     )
-    print(f"shipped {path} ({path.stat().st_size / 1e6:.1f} MB); card: {path.parent / 'MODEL_CARD.md'}")
+    print(f"shipped {path} ({path.stat().st_size / 1e6:.1f} MB); card: {TARGETS[args.target].card}")
     return 0
 
 
