@@ -136,7 +136,7 @@ def test_shipped_config_loads_in_rl_zoo_layout():
 @pytest.mark.parametrize(
     "text,match",
     [
-        ("Other-v0: {}\n", "no block for 'PicoEscape-v0'"),
+        ("Other-v0: {}\n", "'Other-v0' is not a registered env id"),
         ("PicoEscape-v0: {n_envs: 1, n_timesteps: 1, policy: MlpPolicy}\n", "env_wrapper is missing"),
         (TINY + "  surprise: 1\n", "unknown key"),
         ("PicoEscape-v0: [\n", "not valid YAML"),

@@ -117,6 +117,9 @@ def load_config(path: str | Path, env_id: str | None = None) -> TrainConfig:
         if len(blocks) != 1:
             raise ConfigError(f"{path}: expected one env block (rl-zoo3 layout, e.g. 'PicoEscape-v0:'), got {blocks}")
         env_id = str(blocks[0])
+        if env_id not in gym.registry:
+            known = ", ".join(k for k in gym.registry if k.startswith("Pico"))
+            raise ConfigError(f"{path}: {env_id!r} is not a registered env id (pico-gym's: {known})")
     if not isinstance(data, dict) or env_id not in data:
         raise ConfigError(f"{path}: no block for {env_id!r} (rl-zoo3 layout: a top-level key per env id)")
     zoo = dict(data[env_id])
