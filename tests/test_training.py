@@ -294,3 +294,12 @@ def test_a_config_with_two_env_blocks_is_refused(tmp_path):
     path.write_text(TINY + TINY.split("pico-gym:")[0].replace("PicoEscape-v0", "PicoHospital-v0"))
     with pytest.raises(ConfigError, match="expected one env block"):
         load_config(path)
+
+
+def test_without_a_shipped_point_goal_policy_the_error_says_so():
+    from pico_gym.agents.ppo import SHIPPED_POINTGOAL_POLICY
+
+    if SHIPPED_POINTGOAL_POLICY.exists():
+        pytest.skip("a ppo-pointgoal policy is shipped")
+    with pytest.raises(FileNotFoundError, match="no ppo-pointgoal policy is shipped"):
+        make_agent("ppo-pointgoal", gym.make("PicoHospital-v0"))
