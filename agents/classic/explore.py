@@ -50,6 +50,7 @@ from pico_gym.agents.classic.potential_field import (
     heading_rate,
     keep_in_view,
     motion_for,
+    safe_turn,
     safety_filter,
 )
 from pico_gym.jit import njit
@@ -971,23 +972,7 @@ class ExploreAgent(Agent):
         return vx, vy, w
 
     def _safe_turn(self, near: FloatArray, w: float) -> float:
-        """The turn rate, cut so that turning for 0.5 s keeps every point 5 cm off the footprint
-        (the PICO is twice as wide as deep: turning in place next to a wall swings a corner into
-        it, a motion the safety filter's slack lets creep)."""
-        if len(near) == 0 or w == 0.0:
-            return w
-        close = near[np.hypot(near[:, 0], near[:, 1]) < 0.5]
-        if len(close) == 0:
-            return w
-        for scale in (1.0, 0.5, 0.25, 0.0):
-            a = -w * scale * 0.5
-            c, s = math.cos(a), math.sin(a)
-            turned = close @ np.array([[c, -s], [s, c]]).T
-            d_now = footprint_distance(close, self.motion)[0]
-            d_after = footprint_distance(turned, self.motion)[0]
-            if np.all((d_after >= 0.05) | (d_after >= d_now)):
-                return w * scale
-        return 0.0
+        return safe_turn(near, w, self.motion)
 
     def _tight_ahead(self, here: FloatArray, length_m: float) -> bool:
         """Whether the path's next `length_m` passes anywhere narrower than `narrow_m` (so the

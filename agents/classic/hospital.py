@@ -45,6 +45,7 @@ from pico_gym.agents.classic.potential_field import (
     heading_rate,
     keep_in_view,
     motion_for,
+    safe_turn,
     safety_filter,
 )
 from pico_gym.jit import njit
@@ -103,6 +104,9 @@ class HospitalAgentConfig:
             way (fading the evidence alone sent it back into the same gap); a plan that finds
             no way with them is made without them.
         beams: beams per scan the localiser uses.
+        turn_keep_m: turning is cut so that half a second of it keeps every point this far off
+            the footprint (or no closer than it is): PICO is twice as wide as deep, and a turn
+            next to a cabinet swings a corner into it (0: no cut).
     """
 
     cell_m: float = 0.05
@@ -128,6 +132,7 @@ class HospitalAgentConfig:
     recover_wait_s: float = 2.5
     clear_m: float = 0.9
     max_still_s: float = 20.0
+    turn_keep_m: float = 0.05
     unexplained_margin_m: float = 0.08
     nogo_m: float = 0.3
     nogo_s: float = 60.0
@@ -313,6 +318,8 @@ class HospitalAgent(Agent):
         else:
             vx, vy, w = getattr(self, f"_{self.state.value}")(near)
         v = keep_in_view(np.array([vx, vy]), self.motion)
+        if self.config.turn_keep_m > 0.0:
+            w = safe_turn(near, float(w), self.motion, keep_m=self.config.turn_keep_m)
         vx, vy, w = safety_filter(near, (float(v[0]), float(v[1]), float(w)), self.motion)
         # Never stand still long: the challenge ends a run after 30 s without movement (a dwell
         # or a wait is short; a robot boxed in by its own safety filter is not).

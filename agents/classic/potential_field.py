@@ -191,3 +191,23 @@ def _slide(
     if float(np.hypot(*slid)) < 0.1 * float(np.hypot(*v)):
         return None
     return float(slid[0]), float(slid[1]), w
+
+
+def safe_turn(near: FloatArray, w: float, cfg: MotionConfig, horizon_s: float = 0.5, keep_m: float = 0.05) -> float:
+    """The turn rate, cut so that turning for `horizon_s` keeps every point `keep_m` off the
+    footprint or no closer than it is (PICO is twice as wide as deep: turning in place next to a
+    wall or a cabinet swings a corner into it, a motion `safety_filter`'s slack lets creep)."""
+    if len(near) == 0 or w == 0.0:
+        return w
+    close = near[np.hypot(near[:, 0], near[:, 1]) < 0.5]
+    if len(close) == 0:
+        return w
+    for scale in (1.0, 0.5, 0.25, 0.0):
+        a = -w * scale * horizon_s
+        c, s = math.cos(a), math.sin(a)
+        turned = close @ np.array([[c, -s], [s, c]]).T
+        d_now = footprint_distance(close, cfg)[0]
+        d_after = footprint_distance(turned, cfg)[0]
+        if np.all((d_after >= keep_m) | (d_after >= d_now)):
+            return w * scale
+    return 0.0

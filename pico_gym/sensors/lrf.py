@@ -173,6 +173,8 @@ def _cast_sorted(
     behind nearer ones find their beams already shorter than their nearest point and are skipped.
     The bound's margin covers the rounding of r and of the distance, so the ranges are exactly
     those of casting every segment."""
+    # The frame transform and culls repeat `_cast`'s: written once in a shared compiled helper
+    # this loop measured 7 % slower (interleaved, same scenes), so the hot loop keeps its copy.
     culling = one_sided.shape[0] > 0
     a_lo = beam_angles[0]
     a_hi = beam_angles[beam_angles.shape[0] - 1]
