@@ -188,6 +188,8 @@ class Physics:
         self._static_shapes: list[pymunk.Segment] = []
         self._static_keys: list[tuple[float, float, float, float, int]] = []
         if pool is not None:
+            if pool.body.space is not None:  # a physics that failed to build, or was never released
+                pool.body.space.remove(pool.body)
             space.add(pool.body)
         self._segments = np.zeros((0, 4))
         self.add_static(segments, kinds)
@@ -279,10 +281,12 @@ class Physics:
     def release(self) -> None:
         """Hand the static shapes back to the pool (for the next episode's physics); this physics
         must not step again."""
-        if self._pool is None or not self._static_shapes:
+        if self._pool is None:
             return
-        self.space.remove(*self._static_shapes)
-        self.space.remove(self._pool.body)
+        if self._static_shapes:
+            self.space.remove(*self._static_shapes)
+        if self._pool.body.space is self.space:
+            self.space.remove(self._pool.body)
         self._pool.give(self._static_shapes, self._static_keys)
         self._static_shapes, self._static_keys = [], []
 
