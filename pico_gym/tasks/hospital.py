@@ -501,8 +501,9 @@ class HospitalTask(ConfiguredTask):
         if target is not None:
             progress = self._progress.update(pose)
             arrived, distance, error = target.arrival(pose, cfg.facing_tolerance_rad)
-            _, distance_before, error_before = self._arrival_parts
-            facing = _facing_potential(distance, error) - _facing_potential(distance_before, error_before)
+            if w.facing:
+                _, distance_before, error_before = self._arrival_parts
+                facing = _facing_potential(distance, error) - _facing_potential(distance_before, error_before)
             self._arrival_parts = (arrived, distance, error)
             if cfg.arrival == "dwell":
                 still = False
