@@ -17,10 +17,15 @@ The states:
               (the robot's 0.2 m depth across the way, as through a 0.5 m door)
     DOCK      servo the pose into the arrival square, facing the front
     DWELL     stand still for the task's dwell time, then take the next cabinet
+    YIELD     no path while something the map does not explain is close (a person crossing the
+              way, one paused because the robot is near): keep out of its pause radius, watch
+              it (the beams clear the cells it leaves) and plan again every half second; what
+              does not move while watched is a box: RECOVER
     RECOVER   no path or no progress: back off, fade (never wipe) the evidence, plan again
     DONE      every cabinet visited
 
-Not built yet (see the issue): people tracking and yielding outside their pause radius, docking
+Not built yet (see the issue): people tracked and predicted as such (YIELD reacts to what it
+sees, not to a prediction), docking
 servoed on the cabinet's front line as the LRF sees it, the announce arrival mode, a whole-map
 relocalisation.
 """
@@ -61,6 +66,7 @@ class State(Enum):
     NAVIGATE = "navigate"
     DOCK = "dock"
     DWELL = "dwell"
+    YIELD = "yield"
     RECOVER = "recover"
     DONE = "done"
 
@@ -92,7 +98,8 @@ class HospitalAgentConfig:
             an obstacle, none exceeds `evidence_max`.
         localise_turn_rad: LOCALISE searches again after turning this much [rad].
         health_min: below this fraction of explained beams the registration is not trusted.
-        stuck_s: no progress towards the goal for this long means RECOVER [s].
+        stuck_s: no progress towards the goal for this long (or within 0.3 m of one spot for
+            twice this long, whatever the plans say) means RECOVER [s].
         recover_s: RECOVER backs off for at most this long [s] ...
         clear_m: ... or until what the map does not explain is this far [m] ...
         recover_wait_s: ... then waits this long before planning again [s].
@@ -103,7 +110,16 @@ class HospitalAgentConfig:
             robot is kept out of the plan for this long [m, s], so the next plan tries another
             way (fading the evidence alone sent it back into the same gap); a plan that finds
             no way with them is made without them.
+        squeeze_m: when no plan is found otherwise, evidence is inflated by only this much and
+            the safety filter drops `unexplained_margin_m` while following that plan [m].
         beams: beams per scan the localiser uses.
+        yield_range_m: no path with something the map does not explain this close means
+            YIELD, not RECOVER [m].
+        yield_keep_m: YIELD backs away to keep this far from it (the simulator's cart pauses
+            within 0.86 m of the robot, a person within 0.52 m) [m].
+        yield_max_s: a YIELD that has not found a path after this long hands over to RECOVER [s].
+        yield_static_s: ... and one that has seen nothing move for this long [s] (a box);
+            after which no plan failure YIELDs for `yield_static_memory_s` [s].
         turn_keep_m: turning is cut so that half a second of it keeps every point this far off
             the footprint (or no closer than it is): PICO is twice as wide as deep, and a turn
             next to a cabinet swings a corner into it (0: no cut).
@@ -133,9 +149,15 @@ class HospitalAgentConfig:
     clear_m: float = 0.9
     max_still_s: float = 20.0
     turn_keep_m: float = 0.05
+    yield_range_m: float = 2.0
+    yield_keep_m: float = 1.0
+    yield_max_s: float = 15.0
+    yield_static_s: float = 3.0
+    yield_static_memory_s: float = 30.0
     unexplained_margin_m: float = 0.08
     nogo_m: float = 0.3
     nogo_s: float = 60.0
+    squeeze_m: float = 0.1
     beams: int = 90
 
 
@@ -276,6 +298,11 @@ class HospitalAgent(Agent):
         self._last_points = np.zeros((0, 2))
         self.still_steps = 0
         self.nogo: list[tuple[float, float, int]] = []  # (x, y, until step), map frame
+        self._static_until = 0  # no YIELD before this step (a blocker was seen not to move)
+        self.squeeze = False  # the current path needed the squeeze (see `blocked`)
+        self._anchor: tuple[FloatArray, int] | None = None  # (spot, step) of `_going_nowhere`
+        self._yield_seen = np.zeros((0, 2))
+        self._moved_step = -(10**9)
 
     def belief(self) -> Pose | None:
         """The agent's estimate of its pose in the map frame (None before it has localised)."""
@@ -288,6 +315,9 @@ class HospitalAgent(Agent):
         self.plan_step = -(10**9)
         self.best_distance = math.inf
         self.progress_step = self.steps
+        self._yield_seen = np.zeros((0, 2))
+        self._moved_step = -(10**9)
+        self._anchor = None
 
     # --- the step -----------------------------------------------------------------------------
     def act(self, obs: dict[str, np.ndarray]) -> np.ndarray:
@@ -316,7 +346,7 @@ class HospitalAgent(Agent):
         elif self.state is State.DONE:
             vx, vy, w = 0.0, 0.0, 0.0
         else:
-            vx, vy, w = getattr(self, f"_{self.state.value}")(near)
+            vx, vy, w = getattr(self, f"_{self.state.name.lower()}_state")(near)
         v = keep_in_view(np.array([vx, vy]), self.motion)
         if self.config.turn_keep_m > 0.0:
             w = safe_turn(near, float(w), self.motion, keep_m=self.config.turn_keep_m)
@@ -409,8 +439,9 @@ class HospitalAgent(Agent):
 
     def _wary(self, near: FloatArray) -> FloatArray:
         """`near` with the points the map does not explain pulled `unexplained_margin_m` towards
-        the robot, so the safety filter keeps that much more room from boxes and people."""
-        margin = self.config.unexplained_margin_m
+        the robot, so the safety filter keeps that much more room from boxes and people (not on
+        a squeezed path: that gap has no room for it)."""
+        margin = 0.0 if self.squeeze else self.config.unexplained_margin_m
         if margin <= 0.0 or len(near) == 0:
             return near
         c, s = math.cos(self.pose.theta), math.sin(self.pose.theta)
@@ -436,15 +467,18 @@ class HospitalAgent(Agent):
         c, s = math.cos(self.pose.theta), math.sin(self.pose.theta)
         return np.column_stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]])
 
-    def blocked(self, nogo: bool = False) -> np.ndarray:
+    def blocked(self, nogo: bool = False, squeeze: bool = False) -> np.ndarray:
         """The planning grid: the map inflated, plus the evidence of what it does not show (and,
-        with `nogo`, the discs where the robot recently made no progress)."""
+        with `nogo`, the discs where the robot recently made no progress). With `squeeze` the
+        evidence is inflated by only `squeeze_m`: the robot's half depth, for a gap between a box
+        and a wall that it can pass sideways only without the extra margin."""
         cfg = self.config
         seen = self.evidence >= cfg.evidence_block
+        inflate = cfg.squeeze_m if squeeze else cfg.inflate_m + 0.05
         out = (
             self.map_blocked.copy()
             if not seen.any()
-            else self.map_blocked | _dilate(seen, int(math.ceil((cfg.inflate_m + 0.05) / cfg.cell_m)))
+            else self.map_blocked | _dilate(seen, int(math.ceil(inflate / cfg.cell_m - 1e-9)))
         )
         if nogo:
             g = self.grid
@@ -474,8 +508,11 @@ class HospitalAgent(Agent):
         start, end = self._cell(here), self._cell(goal)
         k = int(self.config.inflate_m / self.config.cell_m)
         path = None
-        for nogo in (True, False) if self.nogo else (False,):
-            blocked = self.blocked(nogo)
+        tiers = [(True, False)] if self.nogo else []
+        tiers += [(False, False), (False, True)]
+        for nogo, squeeze in tiers:
+            self.squeeze = squeeze
+            blocked = self.blocked(nogo, squeeze)
             for r, c in (start, end):  # the robot's own cell (and the goal's) may touch the inflation
                 blocked[max(r - k, 0) : r + k + 1, max(c - k, 0) : c + k + 1] = False
             path = astar(blocked, start, end)
@@ -484,6 +521,7 @@ class HospitalAgent(Agent):
         self.plan_step = self.steps
         if path is None:
             self.path = []
+            self.squeeze = False
             return False
         cells = string_pull(blocked, path.cells)
         self.path = self._through_doors([here] + [self._centre(c) for c in cells[1:]] + [goal])[1:]
@@ -528,6 +566,12 @@ class HospitalAgent(Agent):
         points = [here, *self.path]
         return float(sum(np.linalg.norm(b - a) for a, b in zip(points[:-1], points[1:], strict=True)))
 
+    def _going_nowhere(self, here: FloatArray) -> bool:
+        """True when the robot has stayed within 0.3 m of one spot for twice `stuck_s`."""
+        if self._anchor is None or float(np.linalg.norm(here - self._anchor[0])) > 0.3:
+            self._anchor = (here.copy(), self.steps)
+        return self.steps - self._anchor[1] > self._steps(2.0 * self.config.stuck_s)
+
     def _progress(self, distance: float) -> bool:
         """Track progress to the goal; True when there was none for `stuck_s`."""
         if distance < self.best_distance - 0.1:
@@ -536,7 +580,7 @@ class HospitalAgent(Agent):
         return self.steps - self.progress_step > self._steps(self.config.stuck_s)
 
     # --- states --------------------------------------------------------------------------------
-    def _navigate(self, near: FloatArray) -> tuple[float, float, float]:
+    def _navigate_state(self, near: FloatArray) -> tuple[float, float, float]:
         cfg = self.config
         goal = self._dock_point()
         here = np.array([self.pose.x, self.pose.y])
@@ -546,7 +590,8 @@ class HospitalAgent(Agent):
             return 0.0, 0.0, 0.0
         if not self.path or self.steps - self.plan_step >= self._steps(cfg.replan_s) or self._path_blocked():
             if not self._plan(goal):
-                self._go(State.RECOVER)
+                yielding = self._blocker() is not None and self.steps >= self._static_until
+                self._go(State.YIELD if yielding else State.RECOVER)
                 return 0.0, 0.0, 0.0
             remaining = self._remaining(here)
             if remaining > self.best_distance + 0.5:  # a new, longer way round: progress counts anew
@@ -554,7 +599,9 @@ class HospitalAgent(Agent):
                 self.progress_step = self.steps
         while len(self.path) > 1 and np.linalg.norm(self.path[0] - here) < cfg.lookahead_m:
             self.path.pop(0)
-        if self._progress(self._remaining(here)):  # progress along the way, not as the crow flies
+        # Progress along the way, not as the crow flies; and, since plans that alternate between
+        # two ways round each restart that count, the robot must also get somewhere at all.
+        if self._progress(self._remaining(here)) or self._going_nowhere(here):
             ahead = self.path[0] - here
             gap = float(np.hypot(*ahead))
             spot = here + ahead * min(1.0, (cfg.nogo_m + 0.1) / gap) if gap > 1e-6 else here
@@ -566,7 +613,7 @@ class HospitalAgent(Agent):
         self.target = target
         v = attract_and_repel(near, self._to_robot(target), self.follow)
         travel = math.atan2(target[1] - here[1], target[0] - here[0])
-        if distance < cfg.face_within_m:
+        if distance < cfg.face_within_m and self._clear_way(here, goal):
             heading = self._cabinet().facing_rad
         elif self._roomy(here) and self._roomy(target):
             heading = travel  # forward: the LRF sees the way ahead and both sides
@@ -592,6 +639,20 @@ class HospitalAgent(Agent):
             heading = travel - self.side * math.pi / 2
         return float(v[0]), float(v[1]), heading_rate(heading - self.pose.theta, self.motion)
 
+    def _clear_way(self, a: FloatArray, b: FloatArray) -> bool:
+        """Whether the straight way from a to b keeps the robot's half width (0.2 m) and the
+        margin off what the map does not explain: turned to face a cabinet early, the robot
+        drives the last metre forward, which a box beside the way does not leave room for."""
+        seen = self.evidence >= self.config.evidence_block
+        if not seen.any():
+            return True
+        k = int(math.ceil((0.2 + self.config.unexplained_margin_m + 0.05) / self.config.cell_m))
+        for t in np.linspace(0.0, 1.0, max(2, int(np.linalg.norm(b - a) / 0.05))):
+            r, c = self._cell(a + t * (b - a))
+            if seen[max(r - k, 0) : r + k + 1, max(c - k, 0) : c + k + 1].any():
+                return False
+        return True
+
     def _roomy(self, p: FloatArray, within_m: float | None = None) -> bool:
         """Room to drive forward (the robot's 0.4 m width across the way) at a map-frame point:
         the map's walls and the evidence at least `roomy_m` (or `within_m`) away."""
@@ -616,7 +677,7 @@ class HospitalAgent(Agent):
                     return True
         return False
 
-    def _dock(self, near: FloatArray) -> tuple[float, float, float]:
+    def _dock_state(self, near: FloatArray) -> tuple[float, float, float]:
         cfg = self.config
         cab = self._cabinet()
         goal = self._dock_point()
@@ -634,13 +695,65 @@ class HospitalAgent(Agent):
         v = self._to_robot(here + v_map) if float(np.linalg.norm(v_map)) > 0 else np.zeros(2)
         return float(v[0]), float(v[1]), heading_rate(heading_error, self.motion)
 
-    def _dwell(self, near: FloatArray) -> tuple[float, float, float]:
+    def _dwell_state(self, near: FloatArray) -> tuple[float, float, float]:
         if self.state_steps * self.spec.dt_s >= self.dwell_s + self.config.dwell_margin_s:
             self.done += 1
             self._go(State.DONE if self.done >= len(self.order) else State.NAVIGATE)
         return 0.0, 0.0, 0.0
 
-    def _recover(self, near: FloatArray) -> tuple[float, float, float]:
+    def _blocker(self) -> FloatArray | None:
+        """The nearest point within `yield_range_m` that the map does not explain (robot frame)."""
+        pts = self._unexplained_near(self.config.yield_range_m)
+        if len(pts) == 0:
+            return None
+        return pts[int(np.argmin(np.hypot(pts[:, 0], pts[:, 1])))]
+
+    def _yield_state(self, near: FloatArray) -> tuple[float, float, float]:
+        """Keep out of the blocker's pause radius and watch it: a person walking across the way
+        moves on (a paused one resumes once the robot is far enough), the beams clear the cells
+        it leaves, and a plan goes through again. No fading: what is really there stays."""
+        cfg = self.config
+        if self.state_steps * self.spec.dt_s >= cfg.yield_max_s:
+            self._go(State.RECOVER)
+            return 0.0, 0.0, 0.0
+        if self.state_steps % self._steps(0.5) == 0:
+            if self._plan(self._dock_point()):
+                path = self.path
+                self._go(State.NAVIGATE)
+                self.path, self.plan_step = path, self.steps
+                return 0.0, 0.0, 0.0
+            if self._moved():
+                self._moved_step = self.steps
+        if self.steps - max(self._moved_step, self.steps - self.state_steps) >= self._steps(cfg.yield_static_s):
+            # Nothing moved: a box (or a cart at the end of its run). Watching it again would only
+            # renew its evidence: RECOVER (which fades it) from now on, for a while.
+            self._static_until = self.steps + self._steps(cfg.yield_static_memory_s)
+            self._go(State.RECOVER)
+            return 0.0, 0.0, 0.0
+        blocker = self._blocker()
+        if blocker is None:
+            return 0.0, 0.0, 0.3  # it left the view: look round (never idle)
+        w = heading_rate(math.atan2(blocker[1], blocker[0]), self.motion)
+        if float(np.hypot(*blocker)) < cfg.yield_keep_m:
+            v = attract_and_repel(near, self._to_robot(self._escape_spot(self._unexplained_near())), self.motion, speed=0.2)
+            return float(v[0]), float(v[1]), w
+        return 0.0, 0.0, w
+
+    def _moved(self) -> bool:
+        """Whether something the map does not explain is where nothing was at the last check
+        (map frame, 0.15 m apart): a person walking, not a box seen again."""
+        pts = self._unexplained_near(self.config.yield_range_m)
+        c, s = math.cos(self.pose.theta), math.sin(self.pose.theta)
+        here = np.column_stack(
+            [self.pose.x + c * pts[:, 0] - s * pts[:, 1], self.pose.y + s * pts[:, 0] + c * pts[:, 1]]
+        )
+        before, self._yield_seen = self._yield_seen, here
+        if len(before) == 0 or len(here) == 0:
+            return False
+        gaps = np.hypot(here[:, None, 0] - before[None, :, 0], here[:, None, 1] - before[None, :, 1]).min(axis=1)
+        return bool((gaps > 0.15).any())
+
+    def _recover_state(self, near: FloatArray) -> tuple[float, float, float]:
         """Back away from what the map does not explain (a person waits while the robot is within
         half its diagonal + 0.3 m, so a robot that waits close by waits forever), to `clear_m`
         from it or for `recover_s`, then wait a little for it to move on, then plan again."""
@@ -677,8 +790,8 @@ class HospitalAgent(Agent):
                 best, best_score = spot, score
         return best
 
-    def _unexplained_near(self) -> FloatArray:
-        """Robot-frame points within 1.5 m of the last scan that the map does not explain."""
+    def _unexplained_near(self, within_m: float = 1.5) -> FloatArray:
+        """Robot-frame points within `within_m` of the last scan that the map does not explain."""
         pts = self._last_points
         if len(pts) == 0:
             return pts
@@ -686,7 +799,7 @@ class HospitalAgent(Agent):
         ex = self.pose.x + c * pts[:, 0] - s * pts[:, 1]
         ey = self.pose.y + s * pts[:, 0] + c * pts[:, 1]
         d = self.localiser.distance_at(ex, ey)
-        keep = (d > self.config.unexplained_m) & (np.hypot(pts[:, 0], pts[:, 1]) < 1.5)
+        keep = (d > self.config.unexplained_m) & (np.hypot(pts[:, 0], pts[:, 1]) < within_m)
         return pts[keep]
 
     # --- drawing ---------------------------------------------------------------------------------
