@@ -25,9 +25,8 @@ The states:
     DONE      every cabinet visited
 
 Not built yet (see the issue): people tracked and predicted as such (YIELD reacts to what it
-sees, not to a prediction), docking
-servoed on the cabinet's front line as the LRF sees it, the announce arrival mode, a whole-map
-relocalisation.
+sees, not to a prediction), docking servoed on the cabinet's front line as the LRF sees it, the
+announce arrival mode, a whole-map relocalisation.
 """
 
 from __future__ import annotations
@@ -735,7 +734,9 @@ class HospitalAgent(Agent):
             return 0.0, 0.0, 0.3  # it left the view: look round (never idle)
         w = heading_rate(math.atan2(blocker[1], blocker[0]), self.motion)
         if float(np.hypot(*blocker)) < cfg.yield_keep_m:
-            v = attract_and_repel(near, self._to_robot(self._escape_spot(self._unexplained_near())), self.motion, speed=0.2)
+            v = attract_and_repel(
+                near, self._to_robot(self._escape_spot(self._unexplained_near())), self.motion, speed=0.2
+            )
             return float(v[0]), float(v[1]), w
         return 0.0, 0.0, w
 
