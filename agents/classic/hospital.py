@@ -345,7 +345,7 @@ class HospitalAgent(Agent):
         elif self.state is State.DONE:
             vx, vy, w = 0.0, 0.0, 0.0
         else:
-            vx, vy, w = getattr(self, f"_{self.state.name.lower()}_state")(near)
+            vx, vy, w = getattr(self, f"_{self.state.value}")(near)
         v = keep_in_view(np.array([vx, vy]), self.motion)
         if self.config.turn_keep_m > 0.0:
             w = safe_turn(near, float(w), self.motion, keep_m=self.config.turn_keep_m)
@@ -549,6 +549,13 @@ class HospitalAgent(Agent):
         return out
 
     # --- motion helpers ---------------------------------------------------------------------------
+    def _to_map(self, points: FloatArray) -> FloatArray:
+        """Robot-frame points (N, 2) in the map frame, at the pose estimate."""
+        c, s = math.cos(self.pose.theta), math.sin(self.pose.theta)
+        return np.column_stack(
+            [self.pose.x + c * points[:, 0] - s * points[:, 1], self.pose.y + s * points[:, 0] + c * points[:, 1]]
+        )
+
     def _to_robot(self, p: FloatArray) -> FloatArray:
         d = np.asarray(p) - np.array([self.pose.x, self.pose.y])
         c, s = math.cos(self.pose.theta), math.sin(self.pose.theta)
@@ -579,7 +586,7 @@ class HospitalAgent(Agent):
         return self.steps - self.progress_step > self._steps(self.config.stuck_s)
 
     # --- states --------------------------------------------------------------------------------
-    def _navigate_state(self, near: FloatArray) -> tuple[float, float, float]:
+    def _navigate(self, near: FloatArray) -> tuple[float, float, float]:
         cfg = self.config
         goal = self._dock_point()
         here = np.array([self.pose.x, self.pose.y])
@@ -646,11 +653,7 @@ class HospitalAgent(Agent):
         if not seen.any():
             return True
         k = int(math.ceil((0.2 + self.config.unexplained_margin_m + 0.05) / self.config.cell_m))
-        for t in np.linspace(0.0, 1.0, max(2, int(np.linalg.norm(b - a) / 0.05))):
-            r, c = self._cell(a + t * (b - a))
-            if seen[max(r - k, 0) : r + k + 1, max(c - k, 0) : c + k + 1].any():
-                return False
-        return True
+        return not self._evidence_along(seen, a, b, k)
 
     def _roomy(self, p: FloatArray, within_m: float | None = None) -> bool:
         """Room to drive forward (the robot's 0.4 m width across the way) at a map-frame point:
@@ -669,14 +672,18 @@ class HospitalAgent(Agent):
         if not seen.any() or not self.path:
             return False
         here = np.array([self.pose.x, self.pose.y])
-        for a, b in zip([here, *self.path[:-1]], self.path[:3], strict=False):
-            for t in np.linspace(0.0, 1.0, max(2, int(np.linalg.norm(b - a) / 0.05))):
-                r, c = self._cell(a + t * (b - a))
-                if seen[max(r - 2, 0) : r + 3, max(c - 2, 0) : c + 3].any():
-                    return True
+        legs = zip([here, *self.path[:-1]], self.path[:3], strict=False)
+        return any(self._evidence_along(seen, a, b, 2) for a, b in legs)
+
+    def _evidence_along(self, seen: np.ndarray, a: FloatArray, b: FloatArray, k: int) -> bool:
+        """Whether a `seen` cell lies within k cells (a square) of the segment a-b (map frame)."""
+        for t in np.linspace(0.0, 1.0, max(2, int(np.linalg.norm(b - a) / 0.05))):
+            r, c = self._cell(a + t * (b - a))
+            if seen[max(r - k, 0) : r + k + 1, max(c - k, 0) : c + k + 1].any():
+                return True
         return False
 
-    def _dock_state(self, near: FloatArray) -> tuple[float, float, float]:
+    def _dock(self, near: FloatArray) -> tuple[float, float, float]:
         cfg = self.config
         cab = self._cabinet()
         goal = self._dock_point()
@@ -694,7 +701,7 @@ class HospitalAgent(Agent):
         v = self._to_robot(here + v_map) if float(np.linalg.norm(v_map)) > 0 else np.zeros(2)
         return float(v[0]), float(v[1]), heading_rate(heading_error, self.motion)
 
-    def _dwell_state(self, near: FloatArray) -> tuple[float, float, float]:
+    def _dwell(self, near: FloatArray) -> tuple[float, float, float]:
         if self.state_steps * self.spec.dt_s >= self.dwell_s + self.config.dwell_margin_s:
             self.done += 1
             self._go(State.DONE if self.done >= len(self.order) else State.NAVIGATE)
@@ -707,7 +714,7 @@ class HospitalAgent(Agent):
             return None
         return pts[int(np.argmin(np.hypot(pts[:, 0], pts[:, 1])))]
 
-    def _yield_state(self, near: FloatArray) -> tuple[float, float, float]:
+    def _yield(self, near: FloatArray) -> tuple[float, float, float]:
         """Keep out of the blocker's pause radius and watch it: a person walking across the way
         moves on (a paused one resumes once the robot is far enough), the beams clear the cells
         it leaves, and a plan goes through again. No fading: what is really there stays."""
@@ -743,18 +750,14 @@ class HospitalAgent(Agent):
     def _moved(self) -> bool:
         """Whether something the map does not explain is where nothing was at the last check
         (map frame, 0.15 m apart): a person walking, not a box seen again."""
-        pts = self._unexplained_near(self.config.yield_range_m)
-        c, s = math.cos(self.pose.theta), math.sin(self.pose.theta)
-        here = np.column_stack(
-            [self.pose.x + c * pts[:, 0] - s * pts[:, 1], self.pose.y + s * pts[:, 0] + c * pts[:, 1]]
-        )
+        here = self._to_map(self._unexplained_near(self.config.yield_range_m))
         before, self._yield_seen = self._yield_seen, here
         if len(before) == 0 or len(here) == 0:
             return False
         gaps = np.hypot(here[:, None, 0] - before[None, :, 0], here[:, None, 1] - before[None, :, 1]).min(axis=1)
         return bool((gaps > 0.15).any())
 
-    def _recover_state(self, near: FloatArray) -> tuple[float, float, float]:
+    def _recover(self, near: FloatArray) -> tuple[float, float, float]:
         """Back away from what the map does not explain (a person waits while the robot is within
         half its diagonal + 0.3 m, so a robot that waits close by waits forever), to `clear_m`
         from it or for `recover_s`, then wait a little for it to move on, then plan again."""
@@ -796,10 +799,8 @@ class HospitalAgent(Agent):
         pts = self._last_points
         if len(pts) == 0:
             return pts
-        c, s = math.cos(self.pose.theta), math.sin(self.pose.theta)
-        ex = self.pose.x + c * pts[:, 0] - s * pts[:, 1]
-        ey = self.pose.y + s * pts[:, 0] + c * pts[:, 1]
-        d = self.localiser.distance_at(ex, ey)
+        seen = self._to_map(pts)
+        d = self.localiser.distance_at(np.ascontiguousarray(seen[:, 0]), np.ascontiguousarray(seen[:, 1]))
         keep = (d > self.config.unexplained_m) & (np.hypot(pts[:, 0], pts[:, 1]) < within_m)
         return pts[keep]
 
