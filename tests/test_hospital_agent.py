@@ -175,7 +175,7 @@ def test_yield_waits_for_what_moves_and_hands_a_box_over_to_recover(walking: boo
             where["x"] = 1.5 + 0.3 * (agent.steps % 2)  # a new place at every look
         agent.steps += 1
         agent.state_steps += 1
-        agent._yield_state(np.zeros((0, 2)))
+        agent._yield(np.zeros((0, 2)))
     assert agent.state is (State.YIELD if walking else State.RECOVER)
 
 
