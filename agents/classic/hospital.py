@@ -195,6 +195,27 @@ def _update_evidence(
                 evidence[r, c] = min(top, evidence[r, c] + hit)
 
 
+@njit
+def _near_segment(
+    seen: np.ndarray, x0: float, y0: float, res: float, ax: float, ay: float, bx: float, by: float, k: int
+) -> bool:
+    """Whether a `seen` cell lies within k cells (a square) of the segment a-b: samples at most
+    0.05 m apart (both ends included), each sample's cell clipped into the grid."""
+    rows, cols = seen.shape
+    dx, dy = bx - ax, by - ay
+    n = max(2, int(math.sqrt(dx * dx + dy * dy) / 0.05))
+    step = 1.0 / (n - 1)
+    for i in range(n):
+        t = 1.0 if i == n - 1 else i * step
+        r = int(min(max((ay + t * dy - y0) / res, 0.0), rows - 1))
+        c = int(min(max((ax + t * dx - x0) / res, 0.0), cols - 1))
+        for rr in range(max(r - k, 0), min(r + k + 1, rows)):
+            for cc in range(max(c - k, 0), min(c + k + 1, cols)):
+                if seen[rr, cc]:
+                    return True
+    return False
+
+
 def _door_frame(polygon: FloatArray) -> tuple[FloatArray, FloatArray, float]:
     """A door opening's centre, the unit normal through it and its half width (from its polygon:
     the opening's long side across the way, the wall's thickness along it)."""
@@ -320,6 +341,12 @@ class HospitalAgent(Agent):
 
     # --- the step -----------------------------------------------------------------------------
     def act(self, obs: dict[str, np.ndarray]) -> np.ndarray:
+        near = self._sense(obs)
+        return self._finish(near, self._decide(near))
+
+    def _sense(self, obs: dict[str, np.ndarray]) -> FloatArray:
+        """Take in one observation: track the pose, update the evidence; returns the robot-frame
+        points the safety filter keeps the footprint off (`near`)."""
         cfg, lrf = self.config, self.spec.lrf
         ranges = np.asarray(obs["lrf"], dtype=np.float64)
         odom = Pose(*(float(v) for v in obs["odom"]))
@@ -331,6 +358,7 @@ class HospitalAgent(Agent):
             self.odom0 = odom
         if self.localised:
             self._track(odom, points)
+        self._odom = odom
         self.odom_prev = odom
         near = scan_points(ranges, self.angles, lrf.range_max_m, len(ranges))
         near = near[np.hypot(near[:, 0], near[:, 1]) < 1.2]
@@ -339,13 +367,22 @@ class HospitalAgent(Agent):
             behind = self._remembered()
             near = np.vstack([near, behind[np.abs(np.arctan2(behind[:, 1], behind[:, 0])) > lrf.angle_max_rad - 0.05]])
             near = self._wary(near)
+        return near
 
+    def _decide(self, near: FloatArray) -> tuple[float, float, float]:
+        """The state machine's command for this step (before the safety filter)."""
         if self.state is State.LOCALISE:
-            vx, vy, w = self._localise(odom, points, near)
+            command = self._localise(self._odom, self._last_points, near)
         elif self.state is State.DONE:
-            vx, vy, w = 0.0, 0.0, 0.0
+            command = (0.0, 0.0, 0.0)
         else:
-            vx, vy, w = getattr(self, f"_{self.state.value}")(near)
+            command = getattr(self, f"_{self.state.value}")(near)
+        return command
+
+    def _finish(self, near: FloatArray, command: tuple[float, float, float]) -> np.ndarray:
+        """The command through the safety filter (kept in the LRF's view, turns cut near corners,
+        scaled down until the footprint keeps its margin), and the never-stand-still rule."""
+        vx, vy, w = command
         v = keep_in_view(np.array([vx, vy]), self.motion)
         if self.config.turn_keep_m > 0.0:
             w = safe_turn(near, float(w), self.motion, keep_m=self.config.turn_keep_m)
@@ -677,11 +714,10 @@ class HospitalAgent(Agent):
 
     def _evidence_along(self, seen: np.ndarray, a: FloatArray, b: FloatArray, k: int) -> bool:
         """Whether a `seen` cell lies within k cells (a square) of the segment a-b (map frame)."""
-        for t in np.linspace(0.0, 1.0, max(2, int(np.linalg.norm(b - a) / 0.05))):
-            r, c = self._cell(a + t * (b - a))
-            if seen[max(r - k, 0) : r + k + 1, max(c - k, 0) : c + k + 1].any():
-                return True
-        return False
+        g = self.grid
+        return bool(
+            _near_segment(seen, g.x0, g.y0, g.resolution, float(a[0]), float(a[1]), float(b[0]), float(b[1]), k)
+        )
 
     def _dock(self, near: FloatArray) -> tuple[float, float, float]:
         cfg = self.config
