@@ -310,13 +310,26 @@ POINT_GOAL_SIZE = 5
 POINT_GOAL_RANGE_M = 20.0  # ranges beyond this read 1
 
 
-def point_goal(env: gym.Env) -> np.ndarray:
-    """The privileged point goal of a PicoHospital-v0 env, from its TRUE pose and task state.
+def encode_goal(x: float, y: float, theta: float, gx: float, gy: float, facing_rad: float) -> np.ndarray:
+    """A goal point as a policy sees it from pose (x, y, theta): [log-scaled range (0 at it, 1 at
+    POINT_GOAL_RANGE_M and beyond: log(1 + d / 0.1) / log(1 + 20 / 0.1)), sin and cos of its
+    bearing in the robot's frame, sin and cos of the heading error to `facing_rad`].
 
-    [log-scaled range to the next arrival square's centre (0 at it, 1 at POINT_GOAL_RANGE_M and
-    beyond: log(1 + d / 0.1) / log(1 + 20 / 0.1)), sin and cos of its bearing in the robot's frame,
-    sin and cos of the heading error to facing its cabinet]; once every cabinet is done, the robot
-    is at its goal: [0, 0, 1, 0, 1].
+    >>> encode_goal(0.0, 0.0, 0.0, 0.0, 0.0, 0.0).tolist()
+    [0.0, 0.0, 1.0, 0.0, 1.0]
+    """
+    dx, dy = gx - x, gy - y
+    d = math.hypot(dx, dy)
+    bearing = math.atan2(dy, dx) - theta
+    error = facing_rad - theta
+    r = min(math.log1p(d / 0.1) / math.log1p(POINT_GOAL_RANGE_M / 0.1), 1.0)
+    return np.array([r, math.sin(bearing), math.cos(bearing), math.sin(error), math.cos(error)], np.float32)
+
+
+def point_goal(env: gym.Env) -> np.ndarray:
+    """The privileged point goal of a PicoHospital-v0 env, from its TRUE pose and task state:
+    `encode_goal` of the next arrival square's centre, facing its cabinet; once every cabinet is
+    done, the robot is at its goal: [0, 0, 1, 0, 1].
     """
     base = env.unwrapped
     target = base.task.next_target
@@ -324,12 +337,7 @@ def point_goal(env: gym.Env) -> np.ndarray:
         return np.array([0.0, 0.0, 1.0, 0.0, 1.0], np.float32)
     pose = base.pose
     gx, gy = target.dock_point(0.5 * target.side_m)
-    dx, dy = float(gx) - float(pose.x), float(gy) - float(pose.y)
-    d = math.hypot(dx, dy)
-    bearing = math.atan2(dy, dx) - float(pose.theta)
-    error = target.facing_rad - float(pose.theta)
-    r = min(math.log1p(d / 0.1) / math.log1p(POINT_GOAL_RANGE_M / 0.1), 1.0)
-    return np.array([r, math.sin(bearing), math.cos(bearing), math.sin(error), math.cos(error)], np.float32)
+    return encode_goal(float(pose.x), float(pose.y), float(pose.theta), float(gx), float(gy), target.facing_rad)
 
 
 class PrivilegedPointGoal(gym.Wrapper):
