@@ -17,7 +17,7 @@ import gymnasium as gym
 
 from pico_gym.agents.base import Agent, RobotSpec
 
-AGENTS = ("classic", "ppo", "wall-follow", "random", "classic-oracle", "ppo-pointgoal")
+AGENTS = ("classic", "ppo", "hybrid", "wall-follow", "random", "classic-oracle", "ppo-pointgoal")
 # Agents that read privileged state (the true pose) for benchmarks: never a baseline to beat.
 PRIVILEGED_AGENTS = ("classic-oracle", "ppo-pointgoal")
 CLASSIC_ENVS = ("PicoEscape-v0", "PicoHospital-v0", "PicoExplore-v0")  # the classic agent has a strategy for these
@@ -72,6 +72,12 @@ def make_agent(name: str, env: gym.Env, **kwargs: Any) -> Agent:
                 )
             kwargs["path"] = SHIPPED_POINTGOAL_POLICY
         return PpoAgent(spec, goal=lambda: point_goal(env), **kwargs)  # privileged: the true pose
+    if name == "hybrid":
+        if env_id != "PicoHospital-v0":
+            raise ValueError(f"the hybrid agent (classic route, PPO driving) plays PicoHospital-v0 only; got {env_id}")
+        from pico_gym.agents.hybrid import HybridAgent
+
+        return HybridAgent(spec, **kwargs)
     if name == "classic" and env_id == "PicoExplore-v0":
         from pico_gym.agents.classic.explore import ExploreAgent
 

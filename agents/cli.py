@@ -159,7 +159,7 @@ POLICY_HELP = (
 
 
 def _agent_kwargs(args: argparse.Namespace, agent: str) -> dict[str, Any]:
-    return {"path": args.policy} if agent in ("ppo", "ppo-pointgoal") and args.policy else {}
+    return {"path": args.policy} if agent in ("ppo", "ppo-pointgoal", "hybrid") and args.policy else {}
 
 
 def cmd_run(args: argparse.Namespace) -> int:

@@ -60,7 +60,12 @@ PICO_DEFAULTS: dict[str, Any] = {
     "bc_episodes": 0,
     "bc_epochs": 10,
     "bc_log_std": None,
+    "agent": "ppo",
 }
+# What plays a trained policy in evaluations: the policy alone, or the hybrid hospital agent (the
+# classic agent with the policy driving between its waypoints; its env_wrapper is
+# pico_gym.train.hybrid.HybridTraining).
+POLICY_AGENTS = ("ppo", "hybrid")
 # Keys of the env block that are not PPO constructor arguments (rl-zoo3's meaning).
 ZOO_KEYS = {"n_envs", "n_timesteps", "policy", "env_wrapper", "policy_kwargs", "normalize", "frame_stack"}
 
@@ -131,6 +136,8 @@ def load_config(path: str | Path, env_id: str | None = None) -> TrainConfig:
     if unknown:
         raise ConfigError(f"{path}: unknown key(s) {sorted(unknown)} in {PICO_KEY}; known: {sorted(PICO_DEFAULTS)}")
     pico.update(data.get(PICO_KEY) or {})
+    if pico["agent"] not in POLICY_AGENTS:
+        raise ConfigError(f"{path}: {PICO_KEY}.agent must be one of {POLICY_AGENTS}, got {pico['agent']!r}")
     if pico["vec_env"] not in ("dummy", "subproc"):
         raise ConfigError(f"{path}: {PICO_KEY}.vec_env must be 'dummy' or 'subproc', got {pico['vec_env']!r}")
     variants = pico["train_env_variants"]
@@ -222,7 +229,7 @@ def make_plain_env(config: TrainConfig, **kwargs: Any) -> gym.Env:
     `PrivilegedPointGoal` when the policy sees a point goal (the training envs get it from the
     config's env_wrapper list)."""
     env = gym.make(config.env_id, **kwargs)
-    if config.learning.point_goal:
+    if config.learning.point_goal and config.pico["agent"] != "hybrid":  # the hybrid agent computes its own
         from pico_gym.wrappers import PrivilegedPointGoal
 
         env = PrivilegedPointGoal(env)
@@ -309,9 +316,9 @@ def _callbacks() -> Any:
 
         def evaluate(self) -> dict[str, float]:
             learning = self.config.learning
-            agent = PpoAgent(RobotSpec.of(self.env), model=self.model, learning=learning)
+            agent = policy_agent(self.config, RobotSpec.of(self.env), self.model)
             seeds = range(EVAL_SEED_START, EVAL_SEED_START + self.episodes)
-            s = summarize([run_episode(self.env, agent, seed, "ppo") for seed in seeds])
+            s = summarize([run_episode(self.env, agent, seed, agent.name) for seed in seeds])
             score = s.success_rate - s.bump_rate  # bumps end episodes too; count them twice
             row = {
                 "timesteps": self.num_timesteps,
@@ -357,9 +364,21 @@ def _callbacks() -> Any:
     return EscapeStats, PeriodicEval, StopFile
 
 
+def policy_agent(config: TrainConfig, spec: RobotSpec, model: Any) -> Any:
+    """The agent that plays a policy in memory the way the config trains it (`pico-gym.agent`)."""
+    if config.pico["agent"] == "hybrid":
+        from pico_gym.agents.hybrid import HybridAgent
+
+        return HybridAgent(spec, model=model, learning=config.learning)
+    return PpoAgent(spec, model=model, learning=config.learning)
+
+
 # --- behaviour cloning ---------------------------------------------------------------------
 def collect_demonstrations(config: TrainConfig, episodes: int, teacher: str = "classic") -> tuple[Any, Any, dict]:
-    """(policy inputs, unit actions) of `teacher` on `episodes` training-seed rooms."""
+    """(policy inputs, unit actions) of `teacher` on `episodes` training-seed rooms (for a hybrid
+    config: the classic part's own commands on the steps the policy is to drive)."""
+    if config.pico["agent"] == "hybrid":
+        return _hybrid_demonstrations(config, episodes)
     from pico_gym.agents import make_agent
     from pico_gym.wrappers import LearningEncoder, unit_action
 
@@ -379,6 +398,35 @@ def collect_demonstrations(config: TrainConfig, episodes: int, teacher: str = "c
             xs.append(x)
             ys.append(unit_action(action, low, high))
             obs, _, terminated, truncated, info = env.step(action)
+            if terminated or truncated:
+                successes += bool(info["is_success"])
+                break
+            x = encoder.encode(obs)
+    return np.asarray(xs, np.float32), np.asarray(ys, np.float32), {"teacher_success": successes / episodes}
+
+
+def _hybrid_demonstrations(config: TrainConfig, episodes: int) -> tuple[Any, Any, dict]:
+    from pico_gym.train.hybrid import HybridTraining
+    from pico_gym.wrappers import LearningEncoder
+
+    env = gym.make(config.env_id, **{**config.pico["env_kwargs"], **config.pico["train_env_kwargs"]})
+    kwargs = {}
+    for entry in config.zoo["env_wrapper"]:
+        name, given = _wrapper_entry(entry)
+        if name.endswith("HybridTraining"):
+            kwargs = given or {}
+    env = HybridTraining(env, **kwargs)
+    spec = RobotSpec.of(env)
+    encoder = LearningEncoder(spec.lrf, spec.robot, spec.dt_s, config.learning)
+    xs, ys, successes = [], [], 0
+    rng = np.random.default_rng([TRAIN_SEED_MIN, episodes])
+    for _ in range(episodes):
+        obs, info = env.reset(seed=int(rng.integers(TRAIN_SEED_MIN, 2**31)))
+        x = encoder.reset(obs)
+        while True:
+            xs.append(x)
+            ys.append(env.teacher_action())
+            obs, _, terminated, truncated, info = env.step(np.array(env.driver.command))
             if terminated or truncated:
                 successes += bool(info["is_success"])
                 break

@@ -1,0 +1,193 @@
+"""The hybrid hospital agent: the classic agent's localisation, world model, A* route and state
+machine, with a PPO policy driving between the route's waypoints from the LRF.
+
+The classic hospital agent (`pico_gym.agents.classic.hospital`) localises on the given map, keeps
+its evidence grid of what the map does not show, plans the A* route to the next cabinet's dock
+point and runs the state machine (localise, navigate, dock, dwell, yield, recover). While it
+navigates, the policy drives instead of its potential field: it sees the LRF (pooled, with a
+360-degree range memory), the odometry's velocity and the waypoint `lookahead_m` along the route,
+as range and bearing from the agent's own pose estimate, with the heading error to facing the
+cabinet (`encode_goal`, the layout of the point-goal baseline, but computed from what the agent
+knows: no privileged input). Docking, the dwell, yielding and recovery stay classic, and every
+command, the policy's too, passes the classic safety filter (a shield: `HybridConfig.shield`).
+
+The policy is trained in exactly this loop (`pico_gym.train.hybrid.HybridTraining`): the classic
+part acts by itself in every state but NAVIGATE, and the policy's encoder sees only the steps it
+drives (`observe` / `policy_input` / `finish` are the seams the training wrapper uses).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from pico_gym.agents.base import RobotSpec
+from pico_gym.agents.classic.hospital import HospitalAgent, HospitalAgentConfig, State
+from pico_gym.overlay import Overlay
+from pico_gym.types import FloatArray
+from pico_gym.wrappers import LearningConfig, LearningEncoder, encode_goal, rescale_action, unit_action
+
+# The shipped hybrid policy (see agents/models/HOSPITAL_HYBRID_CARD.md once shipped).
+SHIPPED_HYBRID_POLICY = Path(__file__).parent / "models" / "ppo_hospital_hybrid.npz"
+
+
+@dataclass(frozen=True)
+class HybridConfig:
+    """The hybrid agent's own settings.
+
+    Attributes:
+        lookahead_m: the waypoint the policy drives to lies this far along the planned route [m]
+            (or is the route's end, the dock point, when that is nearer).
+        shield: pass the policy's commands through the classic safety filter (as the classic
+            agent's own): kept in the LRF's view, turns cut near corners, scaled down before the
+            footprint comes within its margin.
+    """
+
+    lookahead_m: float = 1.0
+    shield: bool = True
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.lookahead_m, (int, float)) and 0.1 <= self.lookahead_m <= 5.0):
+            raise ValueError(f"HybridConfig.lookahead_m must be in [0.1, 5] m, got {self.lookahead_m!r}")
+        if not isinstance(self.shield, bool):
+            raise ValueError(f"HybridConfig.shield must be true or false, got {self.shield!r}")
+
+
+def waypoint_along(here: FloatArray, path: list[FloatArray], lookahead_m: float) -> FloatArray:
+    """The point `lookahead_m` along the polyline here -> path[0] -> ... (its end if shorter).
+
+    >>> waypoint_along(np.zeros(2), [np.array([0.5, 0.0]), np.array([0.5, 2.0])], 1.0).tolist()
+    [0.5, 0.5]
+    """
+    left = lookahead_m
+    a = np.asarray(here, dtype=np.float64)
+    for p in path:
+        b = np.asarray(p, dtype=np.float64)
+        d = float(np.hypot(*(b - a)))
+        if d >= left:
+            return a + (b - a) * (left / d)
+        left -= d
+        a = b
+    return a
+
+
+class HybridAgent(HospitalAgent):
+    """The classic hospital agent with a PPO policy driving NAVIGATE (see the module docstring).
+
+    Args:
+        spec: the robot's public spec.
+        path: the policy (`.npz`, or an SB3 `.zip`); default: the shipped one.
+        model: an SB3 model in memory instead (training's evaluations), with its `learning`.
+        learning: the observation encoding `model` was trained with.
+        hybrid: the hybrid's own settings.
+        config: the classic part's settings.
+        driver: no policy at all (the training wrapper drives NAVIGATE itself through `observe`,
+            `policy_input` and `finish`; `act` then falls back to the classic command).
+    """
+
+    name = "hybrid"
+
+    def __init__(
+        self,
+        spec: RobotSpec,
+        path: str | Path | None = None,
+        model: Any = None,
+        learning: LearningConfig | None = None,
+        hybrid: HybridConfig | None = None,
+        config: HospitalAgentConfig | None = None,
+        driver: bool = False,
+    ) -> None:
+        super().__init__(spec, config)
+        self.hybrid = hybrid or HybridConfig()
+        self.actor = None
+        if not driver:
+            from pico_gym.agents.mlp import export_actor
+            from pico_gym.agents.ppo import load_actor, observation_normalizer
+
+            if model is not None:
+                if learning is None:
+                    raise ValueError("HybridAgent(model=...) needs the LearningConfig it was trained with")
+                self.actor = export_actor(model, observation_normalizer(model))
+            else:
+                if path is None and not SHIPPED_HYBRID_POLICY.exists():
+                    raise FileNotFoundError(
+                        "no hybrid policy is shipped yet; train one with train/configs/ppo_hospital_hybrid.yaml "
+                        "and pass path=... (--policy)"
+                    )
+                self.actor, learning, _ = load_actor(path or SHIPPED_HYBRID_POLICY)
+        self.learning = learning or LearningConfig(n_sectors=64, frame_stack=2, memory_sectors=36, range_scale="log")
+        if not self.learning.point_goal:
+            self.learning = LearningConfig(**{**self.learning.to_dict(), "point_goal": True})
+        self.encoder = LearningEncoder(spec.lrf, spec.robot, spec.dt_s, self.learning)
+        if self.actor is not None and self.actor.obs_size != self.encoder.space.shape[0]:
+            raise ValueError(
+                f"the policy expects observations of length {self.actor.obs_size}, but {self.learning} on this "
+                f"robot's LRF ({spec.lrf.n_beams} beams) gives {self.encoder.space.shape}"
+            )
+        self._low, self._high = spec.robot.action_low, spec.robot.action_high
+
+    def reset(self, obs: dict[str, np.ndarray], info: dict[str, Any] | None = None) -> None:
+        super().reset(obs, info)
+        self._encoding = False  # the encoder starts at the policy's first step of the episode
+        self._near = np.zeros((0, 2))
+        self.command = (0.0, 0.0, 0.0)
+        self.waypoint: FloatArray | None = None
+
+    # --- the seams the training wrapper drives ----------------------------------------------------
+    def observe(self, obs: dict[str, np.ndarray]) -> bool:
+        """Take in an observation and run the classic part (its command is `self.command`);
+        True when the policy is to drive this step (the classic part is navigating a route)."""
+        self._near = self._sense(obs)
+        self.command = self._decide(self._near)
+        driving = self.state is State.NAVIGATE and bool(self.path)
+        if driving:
+            here = np.array([self.pose.x, self.pose.y])
+            self.waypoint = waypoint_along(here, self.path, self.hybrid.lookahead_m)
+        return driving
+
+    def goal(self) -> np.ndarray:
+        """The waypoint as the policy sees it (`encode_goal` from the pose estimate)."""
+        wp = self.waypoint if self.waypoint is not None else self._dock_point()
+        p = self.pose
+        return encode_goal(p.x, p.y, p.theta, float(wp[0]), float(wp[1]), self._cabinet().facing_rad)
+
+    def policy_input(self, obs: dict[str, np.ndarray]) -> np.ndarray:
+        """The policy's input for this step (call after `observe` returned True)."""
+        full = {**obs, "point_goal": self.goal()}
+        if not self._encoding:
+            self._encoding = True
+            return self.encoder.reset(full)
+        return self.encoder.encode(full)
+
+    def finish(self, command: tuple[float, float, float]) -> np.ndarray:
+        """A command (the policy's or the classic part's) as the action: shielded or not."""
+        if self.hybrid.shield or self.state is not State.NAVIGATE:
+            return self._finish(self._near, command)
+        return np.array(command, dtype=np.float32)
+
+    def teacher(self) -> np.ndarray:
+        """The classic part's own command this step, in the policy's [-1, 1] action units."""
+        return unit_action(np.array(self.command, dtype=np.float64), self._low, self._high)
+
+    # --- the agent ----------------------------------------------------------------------------------
+    def act(self, obs: dict[str, np.ndarray]) -> np.ndarray:
+        if self.observe(obs) and self.actor is not None:
+            unit = self.actor.act(self.policy_input(obs))
+            vx, vy, w = (float(v) for v in rescale_action(unit, self._low, self._high))
+            return self.finish((vx, vy, w))
+        return self.finish(self.command)
+
+    def overlay(self) -> Overlay:
+        base = super().overlay()
+        driving = "policy" if self.state is State.NAVIGATE and self.actor is not None else "classic"
+        target = self.waypoint if self.state is State.NAVIGATE and self.waypoint is not None else base.target
+        return Overlay(
+            frame=base.frame,
+            points=base.points,
+            path=base.path,
+            target=target,
+            text=base.text.replace("classic:", f"hybrid ({driving}):", 1),
+        )
