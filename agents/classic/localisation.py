@@ -235,15 +235,21 @@ class Localiser:
         rival_score = float(s[rival]) if far.any() else -math.inf
         return SearchResult(pose, float(s[best]), rival_score, Pose(*poses[rival]), len(points))
 
-    def refine(self, guess: Pose, points: FloatArray, iterations: int = 6) -> Pose:
+    def refine(self, guess: Pose, points: FloatArray, iterations: int = 6, prior: float = 0.0) -> Pose:
         """Scan-to-map registration (point-to-line ICP against the map): each end point that lands
         near a wall is paired with that wall segment (from the field's nearest-segment grid) and
         Gauss-Newton moves the pose to put the points on their lines; the rest are unexplained
-        and left out."""
+        and left out.
+
+        `prior` > 0 adds prior * |pose - guess|^2 (x, y in metres, heading in radians) to the
+        squared residuals: where the points do not pin the pose down (only the two parallel walls
+        of a hallway in view, the rest hidden by a person: nothing holds the pose along it), it
+        stays at the guess instead of sliding on rounding noise."""
         cfg = self.config
         f = self.field
         pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 2)
         x, y, th = guess
+        x_0, y_0, th_0 = guess
         for _ in range(iterations):
             a, b, used = _icp_step(
                 x,
@@ -259,6 +265,9 @@ class Localiser:
             )
             if used < 6:
                 break
+            if prior > 0.0:
+                a = a + prior * np.eye(3)
+                b = b + prior * np.array([x - x_0, y - y_0, th - th_0])
             step = np.clip(-np.linalg.solve(a + 1e-6 * np.eye(3), b), -0.1, 0.1)
             x, y, th = x + step[0], y + step[1], th + step[2]
             if abs(step[0]) + abs(step[1]) < 1e-5 and abs(step[2]) < 1e-5:

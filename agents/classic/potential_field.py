@@ -38,6 +38,10 @@ class MotionConfig:
         horizon: the safety filter looks this far ahead [s].
         margin: the safety filter keeps obstacle points at least this far from the footprint [m].
         slack: a point already inside the margin may come this much closer [m] (LRF noise).
+        floor: ... but never closer than this, and one already closer not closer at all [m]
+            (0: no floor). The slack is allowed afresh at every step, so without a floor a slow
+            command creeps into a wall a few millimetres a step; what a point's reading does
+            over the horizon depends on the motion, not on its noise.
         turn_gain: turn rate per radian of heading error [1/s].
     """
 
@@ -52,6 +56,7 @@ class MotionConfig:
     horizon: float = 0.35
     margin: float = 0.04
     slack: float = 0.005
+    floor: float = 0.0
     turn_gain: float = 2.0
 
 
@@ -150,6 +155,8 @@ def safety_filter(
     if len(near) == 0:
         return command
     floor = np.minimum(cfg.margin, d_now - cfg.slack)
+    if cfg.floor > 0.0:
+        floor = np.minimum(cfg.margin, np.maximum(d_now - cfg.slack, np.minimum(d_now, cfg.floor)))
 
     def safe(cvx: float, cvy: float, cw: float) -> bool:
         return all(

@@ -1,0 +1,70 @@
+"""People tracking: clusters in beam order, tracks, what moves and what does not."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pico_gym.agents.classic.potential_field import MotionConfig, safety_filter
+from pico_gym.agents.classic.tracking import PeopleTracker, TrackerConfig, clusters_in_order
+
+
+def _blob(centre: tuple[float, float], n: int = 6, size: float = 0.3) -> np.ndarray:
+    """n points along a short segment (what the LRF sees of a person or a box)."""
+    xs = np.linspace(-size / 2, size / 2, n)
+    return np.column_stack([centre[0] + xs, np.full(n, centre[1])])
+
+
+def test_clusters_split_at_gaps_and_at_explained_points() -> None:
+    pts = np.vstack([_blob((0.0, 0.0)), _blob((2.0, 0.0))])
+    keep = np.ones(len(pts), bool)
+    assert [len(c.index) for c in clusters_in_order(pts, keep, 0.2, 2)] == [6, 6]
+    keep[2] = False  # a point the map explains ends a run
+    assert [c.index.tolist() for c in clusters_in_order(pts, keep, 0.2, 3)] == [[3, 4, 5], list(range(6, 12))]
+
+
+def test_a_walking_cluster_becomes_a_moving_track_and_a_standing_one_does_not() -> None:
+    tracker = PeopleTracker(TrackerConfig())
+    for k in range(30):  # 3 s at 10 Hz: a person at 0.5 m/s, a box standing still
+        t = 0.1 * k
+        pts = np.vstack([_blob((1.0 + 0.5 * t, 2.0)), _blob((4.0, -1.0), size=0.5)])
+        tracker.update(pts, np.ones(len(pts), bool), t)
+    moving = tracker.moving()
+    assert len(tracker.tracks) == 2 and len(moving) == 1
+    person = moving[0]
+    assert abs(person.position[0] - (1.0 + 0.5 * 2.9)) < 0.1
+    assert abs(person.velocity[0] - 0.5) < 0.1 and abs(person.velocity[1]) < 0.05
+    assert person.pause_radius_m >= 0.2 + 0.3
+
+
+def test_a_cluster_on_a_door_opening_is_a_door_not_a_person() -> None:
+    door = (np.array([0.0, 0.0]), np.array([0.0, 1.0]), 0.5)  # an opening along x, 1 m wide
+    tracker = PeopleTracker(TrackerConfig(), [door])
+    for k in range(30):  # a door sliding along its opening (the course's doors slide open)
+        pts = _blob((-0.3 + 0.02 * k, 0.0), size=0.4)
+        tracker.update(pts, np.ones(len(pts), bool), 0.1 * k)
+    assert tracker.tracks == []
+
+
+def test_a_lost_track_is_dropped() -> None:
+    tracker = PeopleTracker(TrackerConfig(lost_s=1.0))
+    tracker.update(_blob((0.0, 0.0)), np.ones(6, bool), 0.0)
+    tracker.update(np.zeros((0, 2)), np.zeros(0, bool), 0.5)
+    assert len(tracker.tracks) == 1
+    tracker.update(np.zeros((0, 2)), np.zeros(0, bool), 1.2)
+    assert tracker.tracks == []
+
+
+def test_the_safety_floor_stops_a_slow_creep_into_a_wall() -> None:
+    """Without a floor the slack is allowed afresh every step: a slow command creeps into a wall."""
+    wall = np.column_stack([np.linspace(-0.5, 0.5, 41), np.full(41, 0.25)])  # 5 cm off the left side
+
+    def creep(cfg: MotionConfig) -> float:
+        pts = wall.copy()
+        for _ in range(200):
+            vx, vy, w = safety_filter(pts, (0.0, 0.03, 0.0), cfg)
+            pts = pts - np.array([vx, vy]) * 0.1  # the robot moves: the wall comes closer
+        return float(pts[:, 1].min() - 0.2)  # the gap left between the footprint and the wall
+
+    loose = MotionConfig(margin=0.04, slack=0.01)
+    assert creep(loose) < 0.01  # the creep: into the 1 cm contact skin
+    assert creep(MotionConfig(margin=0.04, slack=0.01, floor=0.035)) >= 0.035 - 1e-9
