@@ -20,6 +20,8 @@ from pico_gym.agents.base import Agent, RobotSpec
 AGENTS = ("classic", "ppo", "hybrid", "wall-follow", "random", "classic-oracle", "ppo-pointgoal")
 # Agents that read privileged state (the true pose) for benchmarks: never a baseline to beat.
 PRIVILEGED_AGENTS = ("classic-oracle", "ppo-pointgoal")
+# Agents that play the hospital's arrival="announce" mode (a fourth action component).
+ANNOUNCING_AGENTS = ("classic", "classic-oracle", "hybrid")
 CLASSIC_ENVS = ("PicoEscape-v0", "PicoHospital-v0", "PicoExplore-v0")  # the classic agent has a strategy for these
 
 
@@ -42,10 +44,12 @@ def make_agent(name: str, env: gym.Env, **kwargs: Any) -> Agent:
         plays = "PicoEscape-v0" if name == "ppo" else " and ".join(CLASSIC_ENVS)
         others = "classic, wall-follow, random" if name == "ppo" and env_id in CLASSIC_ENVS else "wall-follow, random"
         raise ValueError(f"the {name} agent plays {plays} only so far; on {env_id} use: {others}")
-    if env.action_space.shape != (3,):
+    announcing = env_id == "PicoHospital-v0" and name in ANNOUNCING_AGENTS
+    if env.action_space.shape != (3,) and not (announcing and env.action_space.shape == (4,)):
         raise ValueError(
-            f"pico-gym's agents act with a twist (vx, vy, w); {env_id} here takes {env.action_space.shape[0]} "
-            "action components (arrival='announce'): use arrival='dwell'"
+            f"the {name} agent acts with a twist (vx, vy, w); {env_id} here takes {env.action_space.shape[0]} "
+            f"action components (arrival='announce'): use arrival='dwell', or an agent that announces: "
+            f"{', '.join(ANNOUNCING_AGENTS)} (PicoHospital-v0)"
         )
     if name == "classic-oracle":
         if env_id != "PicoHospital-v0":

@@ -166,7 +166,7 @@ class HybridAgent(HospitalAgent):
         """A command (the policy's or the classic part's) as the action: shielded or not."""
         if self.hybrid.shield or self.state is not State.NAVIGATE:
             return self._finish(self._near, command)
-        return np.array(command, dtype=np.float32)
+        return np.array([*command, -1.0] if self.announce else command, dtype=np.float32)
 
     def teacher(self) -> np.ndarray:
         """The classic part's own command this step, in the policy's [-1, 1] action units."""

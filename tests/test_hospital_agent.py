@@ -233,3 +233,26 @@ def test_a_person_beside_a_wall_does_not_pull_the_pose() -> None:
     info, errors = _play(env, make_agent("classic", env), 216)
     assert info["bumps"] == 0
     assert max(e for e, _ in errors) < 0.1
+
+
+def test_announce_mode_announces_each_arrival_once_and_never_falsely() -> None:
+    env = gym.make("PicoHospital-v0", map="hospital_2019", arrival="announce", **QUIET)
+    agent = make_agent("classic", env)
+    obs, info = env.reset(seed=4, options={"cabinet_order": [0, 1, 3]})
+    agent.reset(obs, {"task": info["task"]})
+    announced = 0
+    while True:
+        action = agent.act(obs)
+        assert action.shape == (4,)
+        announced += int(action[3] > 0)
+        obs, _, terminated, truncated, info = env.step(action)
+        if terminated or truncated:
+            break
+    assert info["is_success"] and info["bumps"] == 0
+    assert announced == 3 and info["false_announcements"] == 0
+
+
+def test_agents_that_cannot_announce_say_so() -> None:
+    env = gym.make("PicoHospital-v0", arrival="announce")
+    with pytest.raises(ValueError, match="agent that announces: classic"):
+        make_agent("wall-follow", env)

@@ -16,7 +16,8 @@ The states:
               there is room (the LRF sees ahead and to both sides), sideways where it is narrow
               (the robot's 0.2 m depth across the way, as through a 0.5 m door)
     DOCK      servo the pose into the arrival square, facing the front
-    DWELL     stand still for the task's dwell time, then take the next cabinet
+    DWELL     stand still for the task's dwell time (or, arrival="announce", announce the
+              arrival once), then take the next cabinet
     YIELD     no path while something the map does not explain is close (a person crossing the
               way, one paused because the robot is near): keep out of its pause radius, watch
               it (the beams clear the cells it leaves) and plan again every half second; what
@@ -32,7 +33,7 @@ predicted disc (the hallway closes, the robot waits: timeouts), and its predicte
 safety filter (more bumps). YIELD still reacts to what it sees.
 
 Not built yet (see the issue): docking servoed on the cabinet's front line as the LRF sees it,
-the announce arrival mode, a whole-map relocalisation.
+a whole-map relocalisation.
 """
 
 from __future__ import annotations
@@ -318,6 +319,8 @@ class HospitalAgent(Agent):
             self.doors = [_door_frame(world.polygon(d)) for d in world.doors]
         self.order = list(task.cabinet_order)
         self.dwell_s = float(task.dwell_s)
+        self.announce = getattr(task, "arrival", "dwell") == "announce"
+        self._announcing = False  # this step's action announces an arrival
         self.evidence = np.zeros(self.grid.shape)
         self.state = State.LOCALISE
         self.state_steps = 0
@@ -422,6 +425,9 @@ class HospitalAgent(Agent):
         if self.still_steps >= self._steps(self.config.max_still_s):
             self.still_steps = 0
             self._go(State.RECOVER)
+        if self.announce:  # the fourth component: > 0 announces (the course's io.speak)
+            said, self._announcing = self._announcing, False
+            return np.array([vx, vy, w, 1.0 if said else -1.0], dtype=np.float32)
         return np.array([vx, vy, w], dtype=np.float32)
 
     # --- localisation ---------------------------------------------------------------------------
@@ -805,6 +811,13 @@ class HospitalAgent(Agent):
         return float(v[0]), float(v[1]), heading_rate(heading_error, self.motion)
 
     def _dwell(self, near: FloatArray) -> tuple[float, float, float]:
+        """Stand still for the dwell (arrival="dwell"), or announce the arrival once and go on
+        (arrival="announce": the arrival rule then asks for no stillness)."""
+        if self.announce:
+            self._announcing = True
+            self.done += 1
+            self._go(State.DONE if self.done >= len(self.order) else State.NAVIGATE)
+            return 0.0, 0.0, 0.0
         if self.state_steps * self.spec.dt_s >= self.dwell_s + self.config.dwell_margin_s:
             self.done += 1
             self._go(State.DONE if self.done >= len(self.order) else State.NAVIGATE)
