@@ -256,3 +256,40 @@ def test_agents_that_cannot_announce_say_so() -> None:
     env = gym.make("PicoHospital-v0", arrival="announce")
     with pytest.raises(ValueError, match="agent that announces: classic"):
         make_agent("wall-follow", env)
+
+
+def _kidnap(env: gym.Env, x: float, y: float, theta: float) -> None:
+    """Carry the robot elsewhere (test harness: the physics body is moved, odometry is not told)."""
+    from pico_gym.types import Pose
+
+    physics = env.unwrapped.physics
+    physics._flush()
+    physics.body.position = (x, y)
+    physics.body.angle = theta
+    physics.body.velocity = (0.0, 0.0)
+    physics.body.angular_velocity = 0.0
+    physics.control.position = physics.body.position
+    env.unwrapped._pose = Pose(x, y, theta)
+
+
+@pytest.mark.parametrize(("seed", "to"), [(0, (3.53, 5.53, -1.45)), (3, (4.93, 5.33, -1.65))])
+def test_a_kidnapped_robot_finds_itself_on_the_whole_map_and_finishes(seed: int, to: tuple) -> None:
+    env = gym.make("PicoHospital-v0", map="hospital_2019", **QUIET)
+    agent = make_agent("classic", env)
+    obs, info = env.reset(seed=seed, options={"cabinet_order": [0, 1, 3]})
+    agent.reset(obs, {"task": info["task"]})
+    back_s = None
+    for t in range(3000):
+        if t == 150:
+            _kidnap(env, *to)
+        truth = env.unwrapped.pose
+        action = agent.act(obs)
+        b = agent.belief()
+        if t > 150 and back_s is None and math.hypot(b.x - truth.x, b.y - truth.y) < 0.05:
+            back_s = (t - 150) * 0.1
+        obs, _, terminated, truncated, info = env.step(action)
+        if terminated or truncated:
+            break
+    assert agent.relocalised >= 1
+    assert back_s is not None and back_s < 15.0
+    assert info["is_success"] and info["bumps"] == 0

@@ -12,6 +12,8 @@ The states:
 
     LOCALISE  turn in place, joining scans at their odometry offsets, until one pose of the start
               area (any heading) explains them clearly better than any other (`Localiser`)
+    RELOCALISE the same over the whole map's free space (coarse to fine), when the registration
+              has explained too few beams for a while and local searches did not help (kidnapped)
     NAVIGATE  follow an A* path (string-pulled) to the next cabinet's dock point: forward where
               there is room (the LRF sees ahead and to both sides), sideways where it is narrow
               (the robot's 0.2 m depth across the way, as through a 0.5 m door)
@@ -32,8 +34,7 @@ behind). Tried and measured worse on dev seeds, so not used: planning around a m
 predicted disc (the hallway closes, the robot waits: timeouts), and its predicted points in the
 safety filter (more bumps). YIELD still reacts to what it sees.
 
-Not built yet (see the issue): docking servoed on the cabinet's front line as the LRF sees it,
-a whole-map relocalisation.
+Not built yet (see the issue): docking servoed on the cabinet's front line as the LRF sees it.
 """
 
 from __future__ import annotations
@@ -64,12 +65,13 @@ from pico_gym.jit import njit
 from pico_gym.overlay import Overlay
 from pico_gym.types import FloatArray, Pose
 from pico_gym.world.geometry import compose, inverse, wrap_angle
-from pico_gym.world.grid import Grid, clearance_grid
+from pico_gym.world.grid import Grid, clearance_grid, flood
 from pico_gym.world.hospital import Cabinet, cabinets_of
 
 
 class State(Enum):
     LOCALISE = "localise"
+    RELOCALISE = "relocalise"
     NAVIGATE = "navigate"
     DOCK = "dock"
     DWELL = "dwell"
@@ -106,6 +108,13 @@ class HospitalAgentConfig:
         localise_turn_rad: LOCALISE searches again after turning this much [rad].
         registration_prior: how strongly the scan-to-map registration holds to the odometry
             prediction (`Localiser.refine`'s prior; per m^2 and rad^2 against unit-weight residuals).
+        doubt_health, doubt_s, doubt_scans: a health under this for this long [s] checks the
+            pose against the whole map with this many scans of the last seconds (one a second)
+            (`_check_elsewhere`); lost when a pose elsewhere scores `doubt_gain` more per point
+            (mean log-likelihood, nats: an unexplained point scores log(0.05) = -3, so 0.6 is
+            about a fifth more of the points explained).
+        lost_after: after this many local relocalisations (one per 3 s of poor health) that did
+            not restore it, the pose is lost: RELOCALISE searches the whole map.
         health_min: below this fraction of explained beams the registration is not trusted.
         stuck_s: no progress towards the goal for this long (or within 0.3 m of one spot for
             twice this long, whatever the plans say) means RECOVER [s].
@@ -159,6 +168,11 @@ class HospitalAgentConfig:
     evidence_max: float = 6.0
     localise_turn_rad: float = 0.6
     health_min: float = 0.4
+    lost_after: int = 2
+    doubt_health: float = 0.8
+    doubt_s: float = 1.0
+    doubt_scans: int = 4
+    doubt_gain: float = 0.6
     registration_prior: float = 4.0
     stuck_s: float = 8.0
     recover_s: float = 4.0
@@ -317,6 +331,7 @@ class HospitalAgent(Agent):
             self.start_region = world.polygon(world.start_area[0]) if world.start_area else None
             self.wall_points = _sample_segments(walls, 0.04)  # the map's walls as points, map frame
             self.doors = [_door_frame(world.polygon(d)) for d in world.doors]
+            self._free: FloatArray | None = None
         self.order = list(task.cabinet_order)
         self.dwell_s = float(task.dwell_s)
         self.announce = getattr(task, "arrival", "dwell") == "announce"
@@ -333,6 +348,10 @@ class HospitalAgent(Agent):
         self.turned_since_search = math.inf
         self.turned_total = 0.0
         self.unhealthy_steps = 0
+        self._recent: list[tuple[Pose, FloatArray]] = []  # (odometry, points) of recent scans
+        self.doubt_steps = 0  # steps in a row with the health under doubt_health
+        self.lost_attempts = 0  # local relocalisations that did not restore the health
+        self.relocalised = 0  # whole-map relocalisations done
         self.path: list[FloatArray] = []
         self.plan_step = -(10**9)
         self.steps = 0
@@ -402,7 +421,7 @@ class HospitalAgent(Agent):
 
     def _decide(self, near: FloatArray) -> tuple[float, float, float]:
         """The state machine's command for this step (before the safety filter)."""
-        if self.state is State.LOCALISE:
+        if self.state in (State.LOCALISE, State.RELOCALISE):
             command = self._localise(self._odom, self._last_points, near)
         elif self.state is State.DONE:
             command = (0.0, 0.0, 0.0)
@@ -436,17 +455,30 @@ class HospitalAgent(Agent):
         cfg = self.config
         predicted = compose(self.pose, compose(inverse(self.odom_prev), odom))
         fixed = self._without_people(points, predicted)
+        if self.steps % self._steps(1.0) == 0:  # one scan a second for `_check_elsewhere`
+            self._recent = [*self._recent[-(self.config.doubt_scans - 1) :], (odom, fixed)]
         pose = self.localiser.refine(predicted, fixed, prior=cfg.registration_prior)
         health = self.localiser.explained(pose, fixed)
         self.health = health
         if health >= cfg.health_min and math.hypot(pose.x - predicted.x, pose.y - predicted.y) < 0.2:
             self.pose = pose
             self.unhealthy_steps = 0
+            self.lost_attempts = 0
         else:
             self.pose = predicted
             self.unhealthy_steps += 1
-            if self.unhealthy_steps >= self._steps(3.0):
-                self._relocalise_near(points)
+        if health < cfg.doubt_health and self.state is not State.RELOCALISE:
+            self.doubt_steps += 1
+            if self.doubt_steps >= self._steps(cfg.doubt_s):
+                self.doubt_steps = 0
+                self._check_elsewhere(odom, fixed)
+        else:
+            self.doubt_steps = 0
+        if self.unhealthy_steps >= self._steps(3.0) and self.state is not State.RELOCALISE:
+            self._relocalise_near(points)
+            self.lost_attempts += 1
+            if self.lost_attempts >= cfg.lost_after:
+                self._lost()
         self._update_world(points)
 
     def _without_people(self, points: FloatArray, pose: Pose) -> FloatArray:
@@ -475,32 +507,92 @@ class HospitalAgent(Agent):
         self.unhealthy_steps = 0
 
     def _localise(self, odom: Pose, points: FloatArray, near: FloatArray) -> tuple[float, float, float]:
+        """Turn in place, joining scans at their odometry offsets, until one pose explains them
+        clearly better than any other: of the start area (LOCALISE), or of the whole map's free
+        space (RELOCALISE, after the pose was lost); after a full turn, the best one."""
         cfg = self.config
+        if self.odom0 is None:
+            self.odom0 = odom
         offset = compose(inverse(self.odom0), odom)  # this scan's pose in the first scan's frame
-        if self.odom_prev is not None and self.loc_points:
-            self.turned_total += abs(wrap_angle(odom.theta - self.odom_prev.theta))
         if self.turned_since_search >= cfg.localise_turn_rad:
             c, sn = math.cos(offset.theta), math.sin(offset.theta)
             moved = np.column_stack(
                 [offset.x + c * points[:, 0] - sn * points[:, 1], offset.y + sn * points[:, 0] + c * points[:, 1]]
             )
             self.loc_points.append(moved)
-            region = self.start_region
-            if region is None:  # no start area given: the whole map
-                x0, y0, x1, y1 = self._task.map.bounds
-                region = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
-            result = self.localiser.global_search(region, np.vstack(self.loc_points))
+            joined = np.vstack(self.loc_points)
+            if self.state is State.RELOCALISE:
+                result = self.localiser.search_everywhere(self._free_positions(), joined)
+            else:
+                region = self.start_region
+                if region is None:  # no start area given: the whole map
+                    x0, y0, x1, y1 = self._task.map.bounds
+                    region = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
+                result = self.localiser.global_search(region, joined)
             self.turned_since_search = 0.0
-            if result.margin > self.localiser.config.unique_margin or self.turned_total > 2.0 * math.pi:
-                self.pose = compose(result.pose, offset)
-                self.localised = True
-                self.localise_s = self.steps * self.spec.dt_s
+            needed = self.localiser.config.unique_margin
+            if self.state is State.RELOCALISE:  # the whole map holds far more look-alikes than a start area
+                needed *= 1.0 if len(self.loc_points) >= 3 else math.inf
+            if result.margin > needed or self.turned_total > 2.0 * math.pi:
+                before, self.pose = self.pose, compose(result.pose, offset)
+                if not self.localised:
+                    self.localised = True
+                    self.localise_s = self.steps * self.spec.dt_s
+                else:
+                    self.relocalised += 1
+                    if math.hypot(self.pose.x - before.x, self.pose.y - before.y) > 0.3:
+                        self.evidence *= 0.5  # built on the lost pose: fade it (passing beams clear the rest)
+                self.unhealthy_steps = 0
+                self.lost_attempts = 0
                 self._update_world(points)
                 self._go(State.NAVIGATE)
                 return 0.0, 0.0, 0.0
         turn = 0.8 * self.motion.max_turn
         self.turned_since_search += turn * self.spec.dt_s
+        self.turned_total += turn * self.spec.dt_s
         return 0.0, 0.0, turn
+
+    def _check_elsewhere(self, odom: Pose, points: FloatArray) -> None:
+        """A doubtful pose (few beams explained for a while) against the whole map: when a pose
+        elsewhere explains the last few scans (joined at their odometry offsets) far better, the
+        pose is lost (a wrong pose in one of a hospital's alike rooms can still explain most beams,
+        so the health check alone misses it; one scan full of people and boxes can line up with
+        walls elsewhere, the scans of a few seconds of travel seldom do)."""
+        joined = [points]
+        for then, pts in self._recent[:-1]:
+            off = compose(inverse(odom), then)  # that scan's pose in this one's frame
+            c, s = math.cos(off.theta), math.sin(off.theta)
+            joined.append(
+                np.column_stack([off.x + c * pts[:, 0] - s * pts[:, 1], off.y + s * pts[:, 0] + c * pts[:, 1]])
+            )
+        joined = np.vstack(joined)
+        result = self.localiser.search_everywhere(self._free_positions(), joined)
+        here = float(self.localiser.scores(np.array([tuple(self.pose)]), joined)[0])
+        far = math.hypot(result.pose.x - self.pose.x, result.pose.y - self.pose.y) > 0.5
+        if far and result.score - here > self.config.doubt_gain:
+            self._lost()
+
+    def _lost(self) -> None:
+        """The pose is lost (kidnapped, or the registration slid off): search the whole map."""
+        self._go(State.RELOCALISE)
+        self.odom0 = None
+        self.loc_points = []
+        self.turned_since_search = math.inf
+        self.turned_total = 0.0
+
+    def _free_positions(self) -> FloatArray:
+        """Where the robot's centre can be on the given map (0.2 m apart, inside the building)."""
+        if self._free is None:
+            g = self.grid
+            inside = ~self.map_blocked
+            if self.start_region is not None:
+                r, c = self._cell(self.start_region.mean(axis=0))
+                inside = flood(inside, r, c)
+            rows, cols = np.nonzero(inside[::4, ::4])
+            self._free = np.column_stack(
+                [g.x0 + (4 * cols + 0.5) * g.resolution, g.y0 + (4 * rows + 0.5) * g.resolution]
+            )
+        return self._free
 
     # --- world model ---------------------------------------------------------------------------
     def _update_world(self, points: FloatArray) -> None:
@@ -812,7 +904,11 @@ class HospitalAgent(Agent):
 
     def _dwell(self, near: FloatArray) -> tuple[float, float, float]:
         """Stand still for the dwell (arrival="dwell"), or announce the arrival once and go on
-        (arrival="announce": the arrival rule then asks for no stillness)."""
+        (arrival="announce": the arrival rule then asks for no stillness). Not while the scan
+        does not fit the map (the pose may be lost): that arrival would count for nothing."""
+        if self.health < self.config.doubt_health:
+            self._go(State.NAVIGATE)
+            return 0.0, 0.0, 0.0
         if self.announce:
             self._announcing = True
             self.done += 1

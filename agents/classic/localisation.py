@@ -235,6 +235,52 @@ class Localiser:
         rival_score = float(s[rival]) if far.any() else -math.inf
         return SearchResult(pose, float(s[best]), rival_score, Pose(*poses[rival]), len(points))
 
+    def search_everywhere(
+        self, positions: FloatArray, points: FloatArray, step_theta: float = math.radians(6.0), keep: int = 12
+    ) -> SearchResult:
+        """A coarse-to-fine search over many positions (a whole map's free space): every position
+        at headings `step_theta` apart, then the `keep` best poses that are distinct modes refined
+        (`refine`) and scored again; the best of those and its best rival.
+
+        A coarse grid alone would judge modes by how near a grid pose happens to fall to each;
+        refining the candidates first compares the modes themselves."""
+        cfg = self.config
+        positions = np.asarray(positions, dtype=np.float64).reshape(-1, 2)
+        thetas = np.arange(-math.pi, math.pi, step_theta)
+        poses = np.column_stack(
+            [
+                np.repeat(positions[:, 0], len(thetas)),
+                np.repeat(positions[:, 1], len(thetas)),
+                np.tile(thetas, len(positions)),
+            ]
+        )
+        s = self.scores(poses, points)
+        candidates: list[Pose] = []
+        for k in np.argsort(-s):
+            x, y, t = poses[k]
+            if all(
+                math.hypot(x - c.x, y - c.y) > cfg.distinct_xy
+                or abs(math.remainder(t - c.theta, 2 * math.pi)) > cfg.distinct_theta
+                for c in candidates
+            ):
+                candidates.append(Pose(float(x), float(y), float(t)))
+                if len(candidates) == keep:
+                    break
+        refined = [self.refine(c, points) for c in candidates]
+        scores = self.scores(np.array([tuple(p) for p in refined]), points)
+        order = np.argsort(-scores)
+        best = refined[int(order[0])]
+        rival_score, rival = -math.inf, best
+        for k in order[1:]:
+            p = refined[int(k)]
+            if (
+                math.hypot(p.x - best.x, p.y - best.y) > cfg.distinct_xy
+                or abs(math.remainder(p.theta - best.theta, 2 * math.pi)) > cfg.distinct_theta
+            ):
+                rival_score, rival = float(scores[k]), p
+                break
+        return SearchResult(best, float(scores[order[0]]), rival_score, rival, len(points))
+
     def refine(self, guess: Pose, points: FloatArray, iterations: int = 6, prior: float = 0.0) -> Pose:
         """Scan-to-map registration (point-to-line ICP against the map): each end point that lands
         near a wall is paired with that wall segment (from the field's nearest-segment grid) and

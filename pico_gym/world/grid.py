@@ -221,6 +221,11 @@ def _lookup(dist: FloatArray, fx: float, fy: float) -> float:
     return best
 
 
+def flood(free: np.ndarray, r0: int, c0: int) -> np.ndarray:
+    """The cells of `free` (bool) 4-connected to (r0, c0) (none if that cell is not free)."""
+    return _flood(np.ascontiguousarray(free, dtype=np.bool_), int(r0), int(c0))
+
+
 @njit
 def _flood(free: np.ndarray, r0: int, c0: int) -> np.ndarray:
     rows, cols = free.shape
