@@ -17,7 +17,8 @@ The states:
     NAVIGATE  follow an A* path (string-pulled) to the next cabinet's dock point: forward where
               there is room (the LRF sees ahead and to both sides), sideways where it is narrow
               (the robot's 0.2 m depth across the way, as through a 0.5 m door)
-    DOCK      servo the pose into the arrival square, facing the front
+    DOCK      servo into the arrival square, facing the front: on the front's line as the LRF sees
+              it (its depth and angle; `fit_front`), on the pose estimate until it is in view
     DWELL     stand still for the task's dwell time (or, arrival="announce", announce the
               arrival once), then take the next cabinet
     YIELD     no path while something the map does not explain is close (a person crossing the
@@ -33,8 +34,6 @@ the estimate 0.3 m onto the jamb) and the cells it walked through are cleared (n
 behind). Tried and measured worse on dev seeds, so not used: planning around a moving track's
 predicted disc (the hallway closes, the robot waits: timeouts), and its predicted points in the
 safety filter (more bumps). YIELD still reacts to what it sees.
-
-Not built yet (see the issue): docking servoed on the cabinet's front line as the LRF sees it.
 """
 
 from __future__ import annotations
@@ -169,7 +168,7 @@ class HospitalAgentConfig:
     localise_turn_rad: float = 0.6
     health_min: float = 0.4
     lost_after: int = 2
-    doubt_health: float = 0.8
+    doubt_health: float = 0.7
     doubt_s: float = 1.0
     doubt_scans: int = 4
     doubt_gain: float = 0.6
@@ -251,6 +250,66 @@ def _near_segment(
                 if seen[rr, cc]:
                     return True
     return False
+
+
+@dataclass(frozen=True)
+class FrontFit:
+    """A cabinet's front as the LRF sees it, robot frame.
+
+    Attributes:
+        goal: (2,) where the robot's centre should be: on the front's centre line, `depth` in
+            front of the fitted line.
+        heading_error: how far the robot must turn to face the front squarely [rad].
+        depth_m: the robot centre's distance from the fitted line [m].
+        n_points: the scan points the line was fitted to.
+    """
+
+    goal: FloatArray
+    heading_error: float
+    depth_m: float
+    n_points: int
+
+
+def fit_front(
+    points: FloatArray, front: FloatArray, depth_m: float, within_m: float = 0.08, min_points: int = 8
+) -> FrontFit | None:
+    """Fit a line to the scan points (robot frame) near where a cabinet's front is expected
+    (`front`: its two end points, robot frame, from the pose estimate), and the docking goal it
+    gives: depth and angle come from the line itself, so they hold even when the pose estimate
+    is a few centimetres or degrees off; only the position along the front comes from the
+    estimate (the middle of the expected front, projected onto the line). None when fewer than
+    `min_points` points lie within `within_m` of the expected front.
+
+    >>> front = np.array([[0.5, 0.3], [0.5, -0.3]])  # a 0.6 m front 0.5 m straight ahead
+    >>> pts = np.column_stack([np.full(31, 0.52), np.linspace(-0.3, 0.3, 31)])  # seen 2 cm deeper
+    >>> fit = fit_front(pts, front, 0.33)
+    >>> [round(float(v), 3) + 0.0 for v in fit.goal], round(fit.heading_error, 3), round(fit.depth_m, 3)
+    ([0.19, 0.0], 0.0, 0.52)
+    """
+    a, b = np.asarray(front[0], dtype=np.float64), np.asarray(front[1], dtype=np.float64)
+    along = b - a
+    length = float(np.hypot(*along))
+    if length < 1e-9 or len(points) == 0:
+        return None
+    u = along / length
+    rel = points - a
+    t = rel @ u
+    off = rel @ np.array([-u[1], u[0]])
+    near = points[(np.abs(off) <= within_m) & (t >= -0.05) & (t <= length + 0.05)]
+    if len(near) < min_points:
+        return None
+    centre = near.mean(axis=0)
+    _, _, vt = np.linalg.svd(near - centre, full_matrices=False)
+    direction = vt[0]
+    normal = np.array([-direction[1], direction[0]])
+    if centre @ normal > 0:  # the normal points from the line towards the robot (the origin)
+        normal = -normal
+    depth = float(-(centre @ normal))
+    middle = 0.5 * (a + b)
+    on_line = centre + direction * float((middle - centre) @ direction)
+    goal = on_line + normal * depth_m
+    heading_error = math.atan2(-normal[1], -normal[0])  # facing the front: x along -normal
+    return FrontFit(goal, heading_error, depth, len(near))
 
 
 def _door_frame(polygon: FloatArray) -> tuple[FloatArray, FloatArray, float]:
@@ -348,6 +407,7 @@ class HospitalAgent(Agent):
         self.turned_since_search = math.inf
         self.turned_total = 0.0
         self.unhealthy_steps = 0
+        self._elsewhere: tuple[Pose, Pose] | None = None  # (odometry, pose) a check found elsewhere
         self._recent: list[tuple[Pose, FloatArray]] = []  # (odometry, points) of recent scans
         self.doubt_steps = 0  # steps in a row with the health under doubt_health
         self.lost_attempts = 0  # local relocalisations that did not restore the health
@@ -359,6 +419,9 @@ class HospitalAgent(Agent):
         self.progress_step = 0
         self.side = 0.0
         self.target: FloatArray | None = None
+        self.front_fit: FrontFit | None = None
+        self._scan_robot = np.zeros((0, 2))
+        self._fixed = np.zeros((0, 2))
         self.health = 0.0
         self.localise_s: float | None = None
         self._last_points = np.zeros((0, 2))
@@ -411,6 +474,7 @@ class HospitalAgent(Agent):
         self._odom = odom
         self.odom_prev = odom
         near = scan_points(ranges, self.angles, lrf.range_max_m, len(ranges))
+        self._scan_robot = near  # every valid end point, robot frame (docking fits the front to it)
         near = near[np.hypot(near[:, 0], near[:, 1]) < 1.2]
         if self.localised:
             # The blind sector behind the robot: the map's walls and what the evidence holds there.
@@ -455,6 +519,7 @@ class HospitalAgent(Agent):
         cfg = self.config
         predicted = compose(self.pose, compose(inverse(self.odom_prev), odom))
         fixed = self._without_people(points, predicted)
+        self._fixed = fixed
         if self.steps % self._steps(1.0) == 0:  # one scan a second for `_check_elsewhere`
             self._recent = [*self._recent[-(self.config.doubt_scans - 1) :], (odom, fixed)]
         pose = self.localiser.refine(predicted, fixed, prior=cfg.registration_prior)
@@ -523,6 +588,12 @@ class HospitalAgent(Agent):
             joined = np.vstack(self.loc_points)
             if self.state is State.RELOCALISE:
                 result = self.localiser.search_everywhere(self._free_positions(), joined)
+                # The pose it had when it was judged lost, unless a pose elsewhere clearly beats
+                # it: a hospital's rooms look alike, and a false alarm must not move it.
+                kept = self.localiser.refine(self._lost_from, joined)
+                kept_score = float(self.localiser.scores(np.array([tuple(kept)]), joined)[0])
+                if (result.score - kept_score) * len(joined) < self.localiser.config.unique_margin:
+                    result = dataclasses.replace(result, pose=kept, rival_score=-math.inf)
             else:
                 region = self.start_region
                 if region is None:  # no start area given: the whole map
@@ -569,11 +640,26 @@ class HospitalAgent(Agent):
         result = self.localiser.search_everywhere(self._free_positions(), joined)
         here = float(self.localiser.scores(np.array([tuple(self.pose)]), joined)[0])
         far = math.hypot(result.pose.x - self.pose.x, result.pose.y - self.pose.y) > 0.5
-        if far and result.score - here > self.config.doubt_gain:
-            self._lost()
+        if not (far and result.score - here > self.config.doubt_gain):
+            self._elsewhere = None
+            return
+        # Lost only when two checks in a row find the same pose elsewhere (moved by odometry):
+        # clutter that happens to line up with walls elsewhere seldom does so twice.
+        before = self._elsewhere
+        self._elsewhere = (odom, result.pose)
+        if before is not None:
+            then, there = before
+            expected = compose(there, compose(inverse(then), odom))
+            if (
+                math.hypot(expected.x - result.pose.x, expected.y - result.pose.y) < 0.3
+                and abs(wrap_angle(expected.theta - result.pose.theta)) < 0.3
+            ):
+                self._elsewhere = None
+                self._lost()
 
     def _lost(self) -> None:
         """The pose is lost (kidnapped, or the registration slid off): search the whole map."""
+        self._lost_from = self.pose
         self._go(State.RELOCALISE)
         self.odom0 = None
         self.loc_points = []
@@ -817,6 +903,10 @@ class HospitalAgent(Agent):
                 self.nogo.append((float(spot[0]), float(spot[1]), self.steps + self._steps(cfg.nogo_s)))
             self._go(State.RECOVER)
             return 0.0, 0.0, 0.0
+        if self.still_steps >= self._steps(1.0) and self._holding_a_person():
+            # Stopped inside a person's pause radius: it waits for the robot, the robot for it.
+            self._go(State.YIELD)
+            return 0.0, 0.0, 0.0
         target = self.path[0]
         self.target = target
         v = attract_and_repel(near, self._to_robot(target), self.follow)
@@ -885,30 +975,40 @@ class HospitalAgent(Agent):
         )
 
     def _dock(self, near: FloatArray) -> tuple[float, float, float]:
+        """Servo into the arrival square facing the front: on the front as the LRF sees it
+        (`fit_front`) once it is in view, else on the pose estimate."""
         cfg = self.config
         cab = self._cabinet()
         goal = self._dock_point()
         here = np.array([self.pose.x, self.pose.y])
-        error = goal - here
-        heading_error = wrap_angle(cab.facing_rad - self.pose.theta)
-        arrived, _, _ = cab.arrival(self.pose, math.radians(4.0))
-        if arrived and float(np.linalg.norm(error)) < 0.06:
-            self._go(State.DWELL)
-            return 0.0, 0.0, 0.0
-        if float(np.linalg.norm(error)) > cfg.dock_radius_m + 0.4 or self.state_steps > self._steps(15.0):
+        if float(np.linalg.norm(goal - here)) > cfg.dock_radius_m + 0.4 or self.state_steps > self._steps(15.0):
             self._go(State.NAVIGATE)
             return 0.0, 0.0, 0.0
-        v_map = error * min(1.5, cfg.dock_speed / max(float(np.linalg.norm(error)), 1e-9))
-        v = self._to_robot(here + v_map) if float(np.linalg.norm(v_map)) > 0 else np.zeros(2)
+        fit = fit_front(self._scan_robot, np.array([self._to_robot(p) for p in cab.front]), cfg.dock_depth_m)
+        self.front_fit = fit
+        if fit is not None:
+            error, heading_error = fit.goal, fit.heading_error
+            arrived = True  # the fit's errors decide (the square is around its goal)
+        else:
+            error = self._to_robot(goal)
+            heading_error = wrap_angle(cab.facing_rad - self.pose.theta)
+            arrived = cab.arrival(self.pose, math.radians(4.0))[0]
+        distance = float(np.hypot(*error))
+        if arrived and distance < 0.06 and abs(heading_error) < math.radians(4.0):
+            self._go(State.DWELL)
+            return 0.0, 0.0, 0.0
+        v = error * min(1.5, cfg.dock_speed / max(distance, 1e-9))
         return float(v[0]), float(v[1]), heading_rate(heading_error, self.motion)
 
     def _dwell(self, near: FloatArray) -> tuple[float, float, float]:
         """Stand still for the dwell (arrival="dwell"), or announce the arrival once and go on
         (arrival="announce": the arrival rule then asks for no stillness). Not while the scan
-        does not fit the map (the pose may be lost): that arrival would count for nothing."""
-        if self.health < self.config.doubt_health:
-            self._go(State.NAVIGATE)
-            return 0.0, 0.0, 0.0
+        fits the map poorly without a check against the whole map (the pose may be lost in a
+        look-alike spot: that arrival would count for nothing)."""
+        if self.state_steps == 1 and self.health < self.config.doubt_health and self.localised:
+            self._check_elsewhere(self._odom, self._fixed)  # a look-alike spot while lost?
+            if self.state is not State.DWELL:
+                return 0.0, 0.0, 0.0
         if self.announce:
             self._announcing = True
             self.done += 1
@@ -935,7 +1035,7 @@ class HospitalAgent(Agent):
             self._go(State.RECOVER)
             return 0.0, 0.0, 0.0
         if self.state_steps % self._steps(0.5) == 0:
-            if self._plan(self._dock_point()):
+            if not self._holding_a_person() and self._plan(self._dock_point()):
                 path = self.path
                 self._go(State.NAVIGATE)
                 self.path, self.plan_step = path, self.steps
@@ -958,6 +1058,16 @@ class HospitalAgent(Agent):
             )
             return float(v[0]), float(v[1]), w
         return 0.0, 0.0, w
+
+    def _holding_a_person(self) -> bool:
+        """Whether the robot is inside a moving track's pause radius (+ 0.1 m): the simulator's
+        person or cart waits there until the robot leaves (hospital-facts.md 1.6)."""
+        if not self.config.track_people:
+            return False
+        return any(
+            math.hypot(t.position[0] - self.pose.x, t.position[1] - self.pose.y) < t.pause_radius_m + 0.1
+            for t in self.tracker.moving()
+        )
 
     def _moved(self) -> bool:
         """Whether something the map does not explain is where nothing was at the last check
