@@ -1,0 +1,99 @@
+"""The hybrid hospital agent: the classic route and states, a policy driving between waypoints."""
+
+from __future__ import annotations
+
+import json
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import pico_gym  # noqa: F401
+from pico_gym.agents import make_agent
+from pico_gym.agents.base import RobotSpec
+from pico_gym.agents.classic.hospital import State
+from pico_gym.agents.hybrid import HybridAgent, HybridConfig, waypoint_along
+from pico_gym.agents.mlp import MlpActor
+from pico_gym.train.hybrid import HybridTraining
+from pico_gym.wrappers import LearningConfig, LearningEncoder
+
+LEARNING = LearningConfig(n_sectors=64, frame_stack=2, memory_sectors=36, range_scale="log", point_goal=True)
+QUIET = {"map": "hospital_2019", "closed_doors": (0, 0), "n_boxes": (0, 0), "n_movers": (0, 0)}
+
+
+def _policy_file(tmp_path, env: gym.Env, scale: float = 0.0):  # type: ignore[no-untyped-def]
+    """A policy file of the hybrid's input size: zero weights (it always drives straight ahead at
+    the middle of the action range, i.e. stands still) unless `scale`."""
+    spec = RobotSpec.of(env)
+    n = LearningEncoder(spec.lrf, spec.robot, spec.dt_s, LEARNING).space.shape[0]
+    rng = np.random.default_rng(0)
+    actor = MlpActor(
+        (scale * rng.standard_normal((16, n)).astype(np.float32), scale * rng.standard_normal((3, 16)).astype(np.float32)),
+        (np.zeros(16, np.float32), np.zeros(3, np.float32)),
+        "tanh",
+        np.zeros(3, np.float32),
+        -np.ones(3, np.float32),
+        np.ones(3, np.float32),
+    )
+    path = actor.save(tmp_path / "hybrid.npz")
+    path.with_suffix(".json").write_text(json.dumps({"algo": "ppo", "learning": LEARNING.to_dict()}))
+    return path
+
+
+def test_the_waypoint_lies_along_the_route() -> None:
+    path = [np.array([1.0, 0.0]), np.array([1.0, 3.0])]
+    assert waypoint_along(np.zeros(2), path, 0.5).tolist() == [0.5, 0.0]
+    assert waypoint_along(np.zeros(2), path, 2.0).tolist() == [1.0, 1.0]
+    assert waypoint_along(np.zeros(2), path, 10.0).tolist() == [1.0, 3.0]  # the route's end
+
+
+def test_the_training_wrapper_hands_the_policy_only_navigation_steps() -> None:
+    env = HybridTraining(gym.make("PicoHospital-v0", **QUIET))
+    obs, info = env.reset(seed=1)
+    assert set(obs) == {"lrf", "odom", "point_goal"} and env.observation_space.contains(obs)
+    assert env.driver.state is State.NAVIGATE  # LOCALISE went by inside reset
+    for _ in range(50):
+        teacher = env.teacher_action()
+        assert teacher.shape == (3,) and np.all(np.abs(teacher) <= 1.0)
+        obs, reward, terminated, truncated, info = env.step(np.array(env.driver.command))
+        assert env.driver.state is State.NAVIGATE or terminated or truncated
+        if terminated or truncated:
+            break
+    assert env.classic_steps > 0  # the localising turn, at least
+
+
+def test_the_hybrid_agent_plays_from_public_information_only(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    env = gym.make("PicoHospital-v0", **QUIET)
+    agent = make_agent("hybrid", env, path=_policy_file(tmp_path, env, scale=0.1))
+    obs, info = env.reset(seed=2)
+    agent.reset(obs, {"task": info["task"]})  # the privileged info keys removed
+    drove = 0
+    for _ in range(300):
+        action = agent.act(obs)
+        assert env.action_space.contains(action)
+        drove += agent.state is State.NAVIGATE
+        obs, _, terminated, truncated, info = env.step(action)
+        if terminated or truncated:
+            break
+    assert drove > 0 and agent.belief() is not None
+    assert "hybrid" in agent.overlay().text
+
+
+def test_a_policy_of_the_wrong_size_is_refused(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    env = gym.make("PicoHospital-v0", **QUIET)
+    path = _policy_file(tmp_path, env)
+    meta = json.loads(path.with_suffix(".json").read_text())
+    meta["learning"]["n_sectors"] = 32
+    path.with_suffix(".json").write_text(json.dumps(meta))
+    with pytest.raises(ValueError, match="expects observations of length"):
+        HybridAgent(RobotSpec.of(env), path=path)
+
+
+def test_hybrid_config_is_validated() -> None:
+    with pytest.raises(ValueError, match="lookahead_m"):
+        HybridConfig(lookahead_m=0.0)
+
+
+def test_the_hybrid_plays_the_hospital_only() -> None:
+    with pytest.raises(ValueError, match="PicoHospital-v0 only"):
+        make_agent("hybrid", gym.make("PicoEscape-v0"))
