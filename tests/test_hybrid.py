@@ -27,8 +27,9 @@ def _policy_file(tmp_path, env: gym.Env, scale: float = 0.0):  # type: ignore[no
     spec = RobotSpec.of(env)
     n = LearningEncoder(spec.lrf, spec.robot, spec.dt_s, LEARNING).space.shape[0]
     rng = np.random.default_rng(0)
+    w1, w2 = scale * rng.standard_normal((16, n)), scale * rng.standard_normal((3, 16))
     actor = MlpActor(
-        (scale * rng.standard_normal((16, n)).astype(np.float32), scale * rng.standard_normal((3, 16)).astype(np.float32)),
+        (w1.astype(np.float32), w2.astype(np.float32)),
         (np.zeros(16, np.float32), np.zeros(3, np.float32)),
         "tanh",
         np.zeros(3, np.float32),
