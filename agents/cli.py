@@ -302,7 +302,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
     kwargs = {a: _agent_kwargs(args, a) for a in agents}
     with tqdm(total=total, desc="compare", unit="ep", file=sys.stderr, disable=args.quiet) as bar:
         summaries = compare(agents, episodes, args.out, kwargs, args.workers, args.trajectories, bar.update, args.ray)
-    print(markdown_table(summaries))
+    print(markdown_table(summaries, args.env == "PicoHospital-v0"))
     print(
         f"wrote {args.out}/results.md, results.json, results.csv, success_times.png, success_bumps.png"
         + (", trajectories.png" if args.trajectories else "")
@@ -316,7 +316,13 @@ def add_compare(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--agents", default="classic,ppo,wall-follow,random", help="comma-separated agent names")
     p.add_argument("--episodes", type=int, default=50, help="episodes per suite part (rooms, or starts per map)")
     p.add_argument("--seed", type=int, default=1000, help="first seed (PPO trains on seeds >= 1,000,000)")
-    p.add_argument("--suite", choices=("generated", "maps", "all"), default="generated")
+    p.add_argument(
+        "--suite",
+        choices=("generated", "maps", "all", "hospital"),
+        default="generated",
+        help="generated worlds, the task's shipped maps, both; hospital: generated hospitals, hospital_2019 "
+        "with a closed door, 2 boxes and a person, and hospital_2021 (PicoHospital-v0)",
+    )
     p.add_argument("--out", default="compare", help="output directory")
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="an env option (repeatable)")
     p.add_argument("--policy", help=POLICY_HELP)

@@ -39,9 +39,14 @@ from pico_gym.agents.evaluation import (
 from pico_gym.extras import require
 from pico_gym.world.catalog import shipped_maps
 
-SUITES = ("generated", "maps", "all")
+SUITES = ("generated", "maps", "all", "hospital")
+# The "hospital" suite (PicoHospital-v0): the issue's three settings, each a group of episodes.
+HOSPITAL_SUITE: dict[str, dict[str, Any]] = {
+    "hospital_2019 busy": {"map": "hospital_2019", "n_boxes": (2, 2), "n_movers": (1, 1), "closed_doors": (1, 1)},
+    "hospital_2021": {"map": "hospital_2021"},
+}
 # Trajectory colours per agent, fixed so figures read the same across runs.
-COLOURS = {"classic": "C0", "ppo": "C1", "wall-follow": "C2", "random": "C7"}
+COLOURS = {"classic": "C0", "ppo": "C1", "wall-follow": "C2", "random": "C7", "hybrid": "C3", "ppo-pointgoal": "C4"}
 
 
 def escape_maps() -> list[str]:
@@ -62,6 +67,7 @@ class Episodes:
     groups: tuple[tuple[str | None, tuple[int, ...]], ...]
     env_options: dict[str, Any] = field(default_factory=dict)
     env_id: str = DEFAULT_ENV_ID
+    presets: dict[str, dict[str, Any]] = field(default_factory=dict)  # group name -> its env kwargs
 
     @staticmethod
     def suite(
@@ -71,10 +77,16 @@ class Episodes:
         env_options: dict[str, Any] | None = None,
         env_id: str = DEFAULT_ENV_ID,
     ) -> Episodes:
-        """`episodes` generated worlds and/or `episodes` starts on each shipped map of the env's task."""
+        """`episodes` generated worlds and/or `episodes` starts on each shipped map of the env's task
+        (the "hospital" suite: generated hospitals and `HOSPITAL_SUITE`'s settings)."""
         if name not in SUITES:
             raise ValueError(f"suite must be one of {SUITES}, got {name!r}")
         seeds = tuple(range(seed, seed + episodes))
+        if name == "hospital":
+            if env_id != "PicoHospital-v0":
+                raise ValueError(f"the hospital suite is PicoHospital-v0's; got {env_id}")
+            groups_h = ((None, seeds), *((k, seeds) for k in HOSPITAL_SUITE))
+            return Episodes(groups_h, dict(env_options or {}), env_id, dict(HOSPITAL_SUITE))
         groups: list[tuple[str | None, tuple[int, ...]]] = []
         if name in ("generated", "all"):
             groups.append((None, seeds))
@@ -83,6 +95,8 @@ class Episodes:
         return Episodes(tuple(groups), dict(env_options or {}), env_id)
 
     def env_kwargs(self, map_name: str | None) -> dict[str, Any]:
+        if map_name in self.presets:
+            return {**self.env_options, **self.presets[map_name]}
         if map_name is None:
             return dict(self.env_options)
         if self.env_id == "PicoEscape-v0":
@@ -137,19 +151,49 @@ def _seconds(value: float) -> str:
     return "-" if math.isnan(value) else f"{value:.1f} s"
 
 
-def markdown_table(summaries: dict[str, Summary]) -> str:
-    """A Markdown table, one row per agent."""
-    header = "| agent | episodes | " + " | ".join(c for c, _ in COLUMNS) + " |"
-    rule = "|---|---:|" + "---:|" * len(COLUMNS)
-    rows = [f"| {a} | {s.episodes} | " + " | ".join(f(s) for _, f in COLUMNS) + " |" for a, s in summaries.items()]
+# The hospital's columns besides COLUMNS' (task-neutral figures of the hospital issue).
+HOSPITAL_COLUMNS = [
+    ("progress", lambda s: f"{100 * s.progress_mean:.1f} %"),
+    ("bumps by kind", lambda s: ", ".join(f"{k} {n}" for k, n in s.bumps_by_kind.items() if n) or "-"),
+    ("s within 0.5 m of a mover", lambda s: f"{s.near_mover_s_mean:.1f}"),
+]
+
+
+def markdown_table(summaries: dict[str, Summary], hospital: bool = False) -> str:
+    """A Markdown table, one row per agent (with `hospital`, the hospital's columns too)."""
+    columns = COLUMNS + (HOSPITAL_COLUMNS if hospital else [])
+    header = "| agent | episodes | " + " | ".join(c for c, _ in columns) + " |"
+    rule = "|---|---:|" + "---:|" * len(columns)
+    rows = [f"| {a} | {s.episodes} | " + " | ".join(f(s) for _, f in columns) + " |" for a, s in summaries.items()]
     return "\n".join([header, rule, *rows])
 
 
-def write_results(out: Path, results: dict[str, list[EpisodeRecord]], settings: dict[str, Any]) -> dict[str, Summary]:
+def group_tables(results: dict[str, list[EpisodeRecord]], episodes: Episodes) -> str:
+    """One table per group of episodes (a map, a setting), for suites of several groups."""
+    hospital = episodes.env_id == "PicoHospital-v0"
+    parts, start = [], 0
+    for name, seeds in episodes.groups:
+        stop = start + len(seeds)
+        summaries = {agent: summarize(records[start:stop]) for agent, records in results.items()}
+        parts += [
+            f"### {name or 'generated'} (seeds {seeds[0]}..{seeds[-1]})",
+            "",
+            markdown_table(summaries, hospital),
+            "",
+        ]
+        start = stop
+    return "\n".join(parts)
+
+
+def write_results(
+    out: Path, results: dict[str, list[EpisodeRecord]], settings: dict[str, Any], episodes: Episodes | None = None
+) -> dict[str, Summary]:
     """results.md, results.json and results.csv; returns the summaries."""
     out.mkdir(parents=True, exist_ok=True)
     summaries = {name: summarize(records) for name, records in results.items()}
-    table = markdown_table(summaries)
+    table = markdown_table(summaries, settings.get("env_id") == "PicoHospital-v0")
+    if episodes is not None and len(episodes.groups) > 1:
+        table += "\n\nBy group:\n\n" + group_tables(results, episodes)
     lines = [
         "# pico-gym compare",
         "",
@@ -247,7 +291,10 @@ def plot_trajectories(
     import matplotlib.pyplot as plt
 
     agent_kwargs = agent_kwargs or {}
-    picks = [(m, s) for m, seeds in episodes.groups for s in seeds][:n_rooms]
+    if episodes.presets:  # a suite of settings: the first episode of each
+        picks = [(m, seeds[0]) for m, seeds in episodes.groups][:n_rooms]
+    else:
+        picks = [(m, s) for m, seeds in episodes.groups for s in seeds][:n_rooms]
     cols = min(3, len(picks))
     rows = -(-len(picks) // cols)
     fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 4.4 * rows), dpi=110, squeeze=False)
@@ -315,7 +362,7 @@ def compare(
         "env_options": episodes.env_options,
         "episodes": [{"map": m, "seeds": list(s)} for m, s in episodes.groups],
     }
-    summaries = write_results(out, results, settings)
+    summaries = write_results(out, results, settings, episodes)
     plot_results(out, results, summaries)
     if n_rooms > 0:
         plot_trajectories(out, agents, episodes, n_rooms, agent_kwargs)

@@ -95,10 +95,23 @@ def test_suites():
     assert maps.env_kwargs("escape_2019")["sample_start"] is True
     assert len(Episodes.suite("all", 1, 0).groups) == 1 + len(escape_maps())
     with pytest.raises(ValueError, match="suite"):
-        Episodes.suite("hospital", 1, 0)
+        Episodes.suite("nope", 1, 0)
 
 
 def test_unknown_agent_is_named(capsys):
     assert main(["compare", "--agents", "classic,genius", "--quiet"]) == 2
     assert "genius" in capsys.readouterr().err
     assert callable(add_compare)
+
+
+def test_the_hospital_suite_holds_the_issue_settings_and_tables_each_group(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    from pico_gym.agents.compare import HOSPITAL_SUITE, compare
+
+    episodes = Episodes.suite("hospital", 1, 3, env_id="PicoHospital-v0")
+    assert [m for m, _ in episodes.groups] == [None, *HOSPITAL_SUITE]
+    assert episodes.env_kwargs("hospital_2019 busy")["closed_doors"] == (1, 1)
+    with pytest.raises(ValueError, match="PicoHospital-v0"):
+        Episodes.suite("hospital", 1, 3)
+    compare(["random"], episodes, tmp_path, workers=1, n_rooms=0)
+    text = (tmp_path / "results.md").read_text()
+    assert "### hospital_2019 busy" in text and "bumps by kind" in text

@@ -2,6 +2,7 @@
 
     python -m pico_gym.train.ship runs/ppo_escape_seed0/best.zip [--episodes 500] [--seed 1000]
     python -m pico_gym.train.ship runs/hosp/best.zip --target hospital-pointgoal --episodes 100
+    python -m pico_gym.train.ship runs/hybrid/best.zip --target hospital-hybrid --episodes 100
 
 copies the policy to agents/models/<name>.{zip,json,npz} (`ppo_escape` for the PPO agent,
 `ppo_hospital_pointgoal` for the privileged end-to-end hospital baseline `ppo-pointgoal`),
@@ -25,6 +26,7 @@ from typing import Any
 import yaml
 
 from pico_gym.agents.evaluation import Summary, run_episodes, summarize
+from pico_gym.agents.hybrid import SHIPPED_HYBRID_POLICY
 from pico_gym.agents.mlp import export_actor
 from pico_gym.agents.ppo import SHIPPED_POINTGOAL_POLICY, SHIPPED_POLICY, load_policy, policy_metadata_path
 
@@ -62,6 +64,11 @@ TARGETS = {
         privileged="PRIVILEGED: it sees the range and bearing to the next arrival square and the heading error to "
         "facing its cabinet, from the true pose (`pico_gym.wrappers.PrivilegedPointGoal`, Habitat PointNav's "
         "convention). A baseline for RL research, never a course agent (`PRIVILEGED_AGENTS`).",
+    ),
+    "hospital-hybrid": Target(
+        "hybrid", SHIPPED_HYBRID_POLICY, SHIPPED_HYBRID_POLICY.parent / "HOSPITAL_HYBRID_CARD.md",
+        "PicoHospital-v0", "PicoHospital-v0's generated hospitals with 0-3 boxes and 0-2 people, driving NAVIGATE "
+        "inside the hybrid agent's loop (`pico_gym.train.hybrid.HybridTraining`)", 0.95, 0.01, False,
     ),
 }  # fmt: skip
 
