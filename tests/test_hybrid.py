@@ -98,3 +98,13 @@ def test_hybrid_config_is_validated() -> None:
 def test_the_hybrid_plays_the_hospital_only() -> None:
     with pytest.raises(ValueError, match="PicoHospital-v0 only"):
         make_agent("hybrid", gym.make("PicoEscape-v0"))
+
+
+def test_the_goal_is_reached_once_every_cabinet_is_done() -> None:
+    """The training run crashed here: a wrapper step after the agent believed the order done."""
+    env = gym.make("PicoHospital-v0", **QUIET)
+    agent = HybridAgent(RobotSpec.of(env), driver=True)
+    obs, info = env.reset(seed=1)
+    agent.reset(obs, {"task": info["task"]})
+    agent.done = len(agent.order)
+    assert agent.goal().tolist() == [0.0, 0.0, 1.0, 0.0, 1.0]
