@@ -33,3 +33,18 @@ def test_shipped_model_reproduces_its_card():
     # Same seeds, same episodes; the tolerance covers float differences of other CPUs/torch builds.
     assert abs(successes - sum(check["success"])) <= max(1, len(records) // 10)
     assert abs(sum(r.bumps > 0 for r in records) - sum(b > 0 for b in check["bumps"])) <= max(1, len(records) // 10)
+
+
+def test_the_shipped_hybrid_policy_reproduces_its_card():
+    from pico_gym.agents.hybrid import SHIPPED_HYBRID_POLICY
+
+    card = (SHIPPED_HYBRID_POLICY.parent / "HOSPITAL_HYBRID_CARD.md").read_text()
+    meta = json.loads(policy_metadata_path(SHIPPED_HYBRID_POLICY).read_text())
+    assert SHIPPED_HYBRID_POLICY.stat().st_size < 1e6
+    assert f"{100 * meta['evaluation']['generated']['success_rate']:.1f} %" in card
+    check = meta["check"]
+    env = gym.make("PicoHospital-v0", **(meta.get("env_kwargs") or {}))
+    agent = make_agent("hybrid", env)
+    records = [run_episode(env, agent, seed, "hybrid") for seed in check["seeds"]]
+    assert abs(sum(r.success for r in records) - sum(check["success"])) <= max(1, len(records) // 10)
+    assert abs(sum(r.bumps > 0 for r in records) - sum(b > 0 for b in check["bumps"])) <= max(1, len(records) // 10)

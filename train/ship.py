@@ -166,7 +166,7 @@ def ship(
             "env_kwargs": config["pico-gym"].get("env_kwargs") or {},
             "timesteps": int(m.group(1)),
         }
-    rows = list(csv.DictReader((run_dir / "eval.csv").open())) if (run_dir / "eval.csv").exists() else []
+    evals = list(csv.DictReader((run_dir / "eval.csv").open())) if (run_dir / "eval.csv").exists() else []
     meta["wall_clock_s"] = wall_clock(run_dir, int(meta.get("timesteps", -1))) or done.get("wall_clock_s")
     SHIPPED_MODEL.parent.mkdir(parents=True, exist_ok=True)
     shutil.copyfile(source, SHIPPED_MODEL)
@@ -189,7 +189,7 @@ def ship(
         source=str(source),
         command=config.get("run", {}).get("command", ""),
         train_seed=config.get("run", {}).get("seed"),
-        run_timesteps=done.get("timesteps") or max((int(r["timesteps"]) for r in rows), default=None),
+        run_timesteps=done.get("timesteps") or max((int(r["timesteps"]) for r in evals), default=None),
         evaluation=evaluation,
         history=history(run_dir),
         reproduce=reproduce or [],
