@@ -189,6 +189,7 @@ class HybridAgent(HospitalAgent):
         target = self.waypoint if self.state is State.NAVIGATE and self.waypoint is not None else base.target
         return Overlay(
             frame=base.frame,
+            segments=base.segments,
             points=base.points,
             path=base.path,
             target=target,

@@ -1128,15 +1128,32 @@ class HospitalAgent(Agent):
 
     # --- drawing ---------------------------------------------------------------------------------
     def overlay(self) -> Overlay:
-        """The pose estimate's path and set-point, the evidence cells (map frame)."""
+        """The pose estimate's path and set-point, the evidence cells, the tracks of people seen
+        walking with their pause circles, the target's arrival square and the front the LRF fitted
+        (map frame)."""
         g = self.grid
         rows, cols = np.nonzero(self.evidence >= self.config.evidence_block)
         evidence = np.column_stack([g.x0 + (cols + 0.5) * g.resolution, g.y0 + (rows + 0.5) * g.resolution])
         here = np.array([self.pose.x, self.pose.y])
         path = np.array([here, *self.path]) if self.path else np.zeros((0, 2))
         target = f" -> cabinet {self.order[self.done]}" if self.done < len(self.order) else ""
+        segments = []
+        ring = np.linspace(0.0, 2.0 * math.pi, 17)
+        for t in self.tracker.moving() if self.localised else ():
+            xs = t.position[0] + t.pause_radius_m * np.cos(ring)
+            ys = t.position[1] + t.pause_radius_m * np.sin(ring)
+            segments.append(np.column_stack([xs[:-1], ys[:-1], xs[1:], ys[1:]]))
+        if self.done < len(self.order) and self.localised:
+            sq = self._cabinet().square
+            segments.append(np.column_stack([sq, np.roll(sq, -1, axis=0)]))
+        if self.state is State.DOCK and self.front_fit is not None:
+            c, s = math.cos(self.pose.theta), math.sin(self.pose.theta)
+            goal = self.front_fit.goal
+            gx, gy = self.pose.x + c * goal[0] - s * goal[1], self.pose.y + s * goal[0] + c * goal[1]
+            segments.append(np.array([[self.pose.x, self.pose.y, gx, gy]]))
         return Overlay(
             frame="map",
+            segments=np.vstack(segments) if segments else np.zeros((0, 4)),
             points=evidence.reshape(-1, 2),
             path=path.reshape(-1, 2),
             target=self.target,
