@@ -361,7 +361,7 @@ class HospitalAgent(Agent):
         super().__init__(spec)
         self.config = config or HospitalAgentConfig()
         self.motion = motion or dataclasses.replace(
-            motion_for(spec), floor=self.config.safety_floor_m + 2.0 * spec.lrf.noise_m
+            motion_for(spec), floor=self.config.safety_floor_m + 2.0 * spec.lrf.noise_m, drop_turn=True
         )
         # Following a planned path, the plan keeps the clearance: a weak, short-range repulsion only
         # (a strong one fights the path in narrow ways, the deadlock a course team met), and the
@@ -430,6 +430,7 @@ class HospitalAgent(Agent):
         self._static_until = 0  # no YIELD before this step (a blocker was seen not to move)
         self.squeeze = False  # the current path needed the squeeze (see `blocked`)
         self._anchor: tuple[FloatArray, int] | None = None  # (spot, step) of `_going_nowhere`
+        self._blocked_spots = []
         self._yield_seen = np.zeros((0, 2))
         self._moved_step = -(10**9)
         self.tracker = PeopleTracker(cfg.tracker, self.doors)
@@ -449,6 +450,7 @@ class HospitalAgent(Agent):
         self._yield_seen = np.zeros((0, 2))
         self._moved_step = -(10**9)
         self._anchor = None
+        self._blocked_spots: list[FloatArray] = []  # escape spots the robot could not move towards
 
     # --- the step -----------------------------------------------------------------------------
     def act(self, obs: dict[str, np.ndarray]) -> np.ndarray:
@@ -1101,20 +1103,38 @@ class HospitalAgent(Agent):
         return float(v[0]), float(v[1]), 0.0
 
     def _escape_spot(self, unexplained: FloatArray) -> FloatArray:
-        """Where to back off to (map frame): of the spots 0.6 m away in 16 directions that the map
-        and the evidence leave free, the one farthest from what the map does not explain."""
+        """Where to back off to (map frame): of the spots 0.6 and 0.9 m away in 16 directions that
+        the map and the evidence leave room for the robot's centre, the one farthest from what the
+        map does not explain."""
         here = np.array([self.pose.x, self.pose.y])
         c, s = math.cos(self.pose.theta), math.sin(self.pose.theta)
         others = here + unexplained @ np.array([[c, s], [-s, c]])  # robot frame -> map frame
         best, best_score = here, -math.inf
-        for a in np.linspace(0.0, 2.0 * math.pi, 16, endpoint=False):
-            spot = here + 0.6 * np.array([math.cos(a), math.sin(a)])
-            if not self._roomy(spot, 0.25):
+        for a, reach in ((a, r) for r in (0.6, 0.9) for a in np.linspace(0.0, 2.0 * math.pi, 16, endpoint=False)):
+            spot = here + reach * np.array([math.cos(a), math.sin(a)])
+            # Room for the robot's centre (beside a wall too: wedged between a wall and a paused
+            # person, the way out is along the wall).
+            if not self._roomy(spot, self.config.inflate_m) or not self._straight_way(here, spot):
+                continue
+            if any(np.hypot(*(spot - bad)) < 0.3 for bad in self._blocked_spots):
                 continue
             score = float(np.hypot(*(others - spot).T).min()) if len(others) else 0.0
             if score > best_score:
                 best, best_score = spot, score
+        if self.still_steps >= self._steps(1.0) and best is not here:
+            # The safety filter has held the robot still on the way there: another way out.
+            self._blocked_spots.append(best)
+            self.still_steps = 0
         return best
+
+    def _straight_way(self, a: FloatArray, b: FloatArray) -> bool:
+        """Whether the robot's centre can go straight from a to b: the map's walls keep the
+        robot's half depth off the way (a spot behind a wall is near but not reachable)."""
+        n = max(2, int(np.linalg.norm(b - a) / 0.05))
+        for t in np.linspace(0.0, 1.0, n)[1:]:
+            if self.map_clearance[self._cell(a + t * (b - a))] < 0.1:
+                return False
+        return True
 
     def _unexplained_near(self, within_m: float = 1.5) -> FloatArray:
         """Robot-frame points within `within_m` of the last scan that the map does not explain."""

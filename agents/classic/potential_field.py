@@ -42,6 +42,9 @@ class MotionConfig:
             (0: no floor). The slack is allowed afresh at every step, so without a floor a slow
             command creeps into a wall a few millimetres a step; what a point's reading does
             over the horizon depends on the motion, not on its noise.
+        drop_turn: before scaling a command down, try it without its turn (PICO is twice as
+            wide as deep: backing away from something beside a corner while turning to watch
+            it swings the corner into it).
         turn_gain: turn rate per radian of heading error [1/s].
     """
 
@@ -57,6 +60,7 @@ class MotionConfig:
     margin: float = 0.04
     slack: float = 0.005
     floor: float = 0.0
+    drop_turn: bool = False
     turn_gain: float = 2.0
 
 
@@ -171,6 +175,8 @@ def safety_filter(
     slid = _slide(near, floor, (vx, vy, w), cfg)
     if slid is not None and safe(*slid):
         return slid
+    if cfg.drop_turn and w != 0.0 and (vx != 0.0 or vy != 0.0) and safe(vx, vy, 0.0):
+        return vx, vy, 0.0  # the turn swung a corner into something: translate only
     for scale in (0.45, 0.25, 0.1, 0.0):
         if safe(vx * scale, vy * scale, w * scale):
             return vx * scale, vy * scale, w * scale
