@@ -305,6 +305,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
     print(markdown_table(summaries, args.env == "PicoHospital-v0"))
     print(
         f"wrote {args.out}/results.md, results.json, results.csv, success_times.png, success_bumps.png"
+        + (", legs.png, bumps.png" if args.env == "PicoHospital-v0" else "")
         + (", trajectories.png" if args.trajectories else "")
     )
     return 0

@@ -203,6 +203,11 @@ def write_results(
         table,
         "",
         "![escape times](success_times.png) ![success and bumps](success_bumps.png)",
+        *(
+            ["", "![time per leg](legs.png) ![where the bumps began](bumps.png)"]
+            if settings.get("env_id") == "PicoHospital-v0"
+            else []
+        ),
         "",
         "![trajectories](trajectories.png)",
         "",
@@ -275,6 +280,65 @@ def plot_results(out: Path, results: dict[str, list[EpisodeRecord]], summaries: 
     fig.savefig(out / "success_bumps.png")
     plt.close(fig)
     return [out / "success_times.png", out / "success_bumps.png"]
+
+
+def plot_hospital(out: Path, results: dict[str, list[EpisodeRecord]], episodes: Episodes) -> list[Path]:
+    """The hospital's figures: the time each leg of the order took (successful and unfinished
+    episodes alike), and where the bumps began on each fixed map of the suite."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from pico_gym.world.catalog import load_shipped
+
+    names = list(results)
+    fig, ax = plt.subplots(figsize=(7, 3.8), dpi=110)
+    legs = []
+    for n in names:
+        durations = []
+        for r in results[n]:
+            durations += list(np.diff([0.0, *r.leg_done_s]))
+        legs.append(durations)
+    positions = [i for i, d in enumerate(legs) if d]
+    if positions:
+        ax.boxplot([legs[i] for i in positions], positions=positions, widths=0.5)
+    ax.set_xticks(range(len(names)), [f"{n}\n({len(d)} legs)" for n, d in zip(names, legs, strict=True)])
+    ax.set_ylabel("time per leg [s]")
+    ax.set_title("Time from one cabinet to the next (the first leg from the start)")
+    ax.grid(axis="y", alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(out / "legs.png")
+    plt.close(fig)
+
+    fixed = [(name, kw["map"]) for name, kw in episodes.presets.items() if "map" in kw]
+    fig, axes = plt.subplots(1, max(1, len(fixed)), figsize=(5 * max(1, len(fixed)), 5), dpi=110, squeeze=False)
+    start = {name: 0 for name in names}
+    for group, seeds in episodes.groups:
+        index = next((i for i, (g, _) in enumerate(fixed) if g == group), None)
+        for n in names:
+            chunk = results[n][start[n] : start[n] + len(seeds)]
+            start[n] += len(seeds)
+            if index is None:
+                continue
+            xy = np.array([p for r in chunk for p in r.bump_xy]).reshape(-1, 2)
+            axes[0, index].plot(
+                xy[:, 0], xy[:, 1], "x", color=COLOURS.get(n, "C4"), ms=7, mew=2, label=f"{n} ({len(xy)})"
+            )
+    for i, (group, map_name) in enumerate(fixed):
+        ax = axes[0, i]
+        world = load_shipped(map_name)
+        for x0, y0, x1, y1 in np.vstack([world.wall_segments, world.cabinet_segments]):
+            ax.plot([x0, x1], [y0, y1], color="black", lw=1)
+        ax.set_aspect("equal")
+        ax.set_title(f"bumps, {group}", fontsize=9)
+        ax.legend(fontsize=7, loc="best")
+        ax.set_xticks([])
+        ax.set_yticks([])
+    fig.tight_layout()
+    fig.savefig(out / "bumps.png")
+    plt.close(fig)
+    return [out / "legs.png", out / "bumps.png"]
 
 
 def plot_trajectories(
@@ -364,6 +428,8 @@ def compare(
     }
     summaries = write_results(out, results, settings, episodes)
     plot_results(out, results, summaries)
+    if episodes.env_id == "PicoHospital-v0":
+        plot_hospital(out, results, episodes)
     if n_rooms > 0:
         plot_trajectories(out, agents, episodes, n_rooms, agent_kwargs)
     return summaries

@@ -53,6 +53,9 @@ class EpisodeRecord:
     localise_error_deg: float | None = None  # ... and heading
     max_localise_error_m: float | None = None  # the worst position error of the belief over the run
     near_mover_s: float = 0.0  # time the robot's centre spent within 0.5 m of a mover's box
+    # the hospital: when each cabinet of the order was counted [s]; where bumps began (x, y)
+    leg_done_s: list[float] = dataclasses.field(default_factory=list)
+    bump_xy: list[tuple[float, float]] = dataclasses.field(default_factory=list)
     # PicoExplore-v0 (None elsewhere)
     parked: bool | None = None
     explored: bool | None = None  # every room seen to the task's explore_coverage when it parked
@@ -93,6 +96,9 @@ def run_episode(
     localised: tuple[float, float, float] | None = None  # (time, position error, heading error)
     worst: float | None = None
     near_mover = 0.0
+    legs: list[float] = []
+    bumps_seen = 0
+    bump_xy: list[tuple[float, float]] = []
     dt = env.unwrapped.config.dt_s
     while True:
         truth = env.unwrapped.pose  # privileged: scores the agent, never reaches it
@@ -107,6 +113,11 @@ def run_episode(
                 heading = abs(math.remainder(estimate.theta - truth.theta, 2 * math.pi))
                 localised = (len(times) * dt, error, math.degrees(heading))
         obs, _, terminated, truncated, info = env.step(action)
+        if info.get("cabinets_done", 0) > len(legs):
+            legs.append(round(float(info["sim_time"]), 6))
+        if info["bumps"] > bumps_seen:
+            bumps_seen = int(info["bumps"])
+            bump_xy.append((round(float(info["pose"][0]), 4), round(float(info["pose"][1]), 4)))
         movers = info.get("movers")
         if movers is not None and len(movers):
             near_mover += dt * float(_near_a_mover(info["pose"], movers, env.unwrapped.scene.movers))
@@ -136,6 +147,8 @@ def run_episode(
         localise_error_deg=localised[2] if localised else None,
         max_localise_error_m=worst,
         near_mover_s=round(near_mover, 6),
+        leg_done_s=legs,
+        bump_xy=bump_xy,
         **explore,
     )
 

@@ -115,3 +115,18 @@ def test_the_hospital_suite_holds_the_issue_settings_and_tables_each_group(tmp_p
     compare(["random"], episodes, tmp_path, workers=1, n_rooms=0)
     text = (tmp_path / "results.md").read_text()
     assert "### hospital_2019 busy" in text and "bumps by kind" in text
+    assert (tmp_path / "legs.png").stat().st_size > 0 and (tmp_path / "bumps.png").stat().st_size > 0
+    records = json.loads((tmp_path / "results.json").read_text())["episodes"]
+    assert all(len(r["bump_xy"]) == r["bumps"] for r in records)  # random bumps: each one placed
+
+
+def test_hospital_records_time_each_leg() -> None:
+    import gymnasium as gym
+
+    from pico_gym.agents import make_agent
+    from pico_gym.agents.evaluation import run_episode
+
+    env = gym.make("PicoHospital-v0", map="hospital_2019", n_boxes=(0, 0), n_movers=(0, 0), closed_doors=(0, 0))
+    record = run_episode(env, make_agent("classic", env), 4, options={"cabinet_order": [0, 1, 3]})
+    assert record.success and len(record.leg_done_s) == 3
+    assert record.leg_done_s == sorted(record.leg_done_s) and record.leg_done_s[-1] == record.time_s
