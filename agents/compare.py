@@ -238,6 +238,26 @@ def _describe(settings: dict[str, Any]) -> str:
     return "; ".join(parts) + (f"; env options {options}" if options else "")
 
 
+def _box_figure(path: Path, names: list[str], values: list[list[float]], unit: str, ylabel: str, title: str) -> None:
+    """One box (with its points) per agent."""
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, 3.8), dpi=110)
+    positions = [i for i, v in enumerate(values) if v]
+    if positions:
+        ax.boxplot([values[i] for i in positions], positions=positions, widths=0.5, showfliers=True)
+        for i in positions:
+            jitter = np.linspace(-0.15, 0.15, len(values[i]))
+            ax.scatter(i + jitter, values[i], s=6, alpha=0.4, color=COLOURS.get(names[i], "C4"))
+    ax.set_xticks(range(len(names)), [f"{n}\n({len(v)} {unit})" for n, v in zip(names, values, strict=True)])
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
+    ax.grid(axis="y", alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
 def plot_results(out: Path, results: dict[str, list[EpisodeRecord]], summaries: dict[str, Summary]) -> list[Path]:
     """Escape-time distributions and success/bump bars as PNGs."""
     import matplotlib
@@ -246,21 +266,9 @@ def plot_results(out: Path, results: dict[str, list[EpisodeRecord]], summaries: 
     import matplotlib.pyplot as plt
 
     names = list(results)
-    fig, ax = plt.subplots(figsize=(7, 3.8), dpi=110)
     times = [[r.time_s for r in results[n] if r.success] for n in names]
-    positions = [i for i, t in enumerate(times) if t]
-    if positions:
-        ax.boxplot([times[i] for i in positions], positions=positions, widths=0.5, showfliers=True)
-        for i in positions:
-            jitter = np.linspace(-0.15, 0.15, len(times[i]))
-            ax.scatter(i + jitter, times[i], s=6, alpha=0.4, color=COLOURS.get(names[i], "C4"))
-    ax.set_xticks(range(len(names)), [f"{n}\n({len(t)} escapes)" for n, t in zip(names, times, strict=True)])
-    ax.set_ylabel("time to success [s]")
-    ax.set_title("Time to success (successful episodes)")
-    ax.grid(axis="y", alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(out / "success_times.png")
-    plt.close(fig)
+    _box_figure(out / "success_times.png", names, times, "escapes", "time to success [s]",
+                "Time to success (successful episodes)")  # fmt: skip
 
     fig, ax = plt.subplots(figsize=(7, 3.5), dpi=110)
     x = np.arange(len(names))
@@ -293,23 +301,9 @@ def plot_hospital(out: Path, results: dict[str, list[EpisodeRecord]], episodes: 
     from pico_gym.world.catalog import load_shipped
 
     names = list(results)
-    fig, ax = plt.subplots(figsize=(7, 3.8), dpi=110)
-    legs = []
-    for n in names:
-        durations = []
-        for r in results[n]:
-            durations += list(np.diff([0.0, *r.leg_done_s]))
-        legs.append(durations)
-    positions = [i for i, d in enumerate(legs) if d]
-    if positions:
-        ax.boxplot([legs[i] for i in positions], positions=positions, widths=0.5)
-    ax.set_xticks(range(len(names)), [f"{n}\n({len(d)} legs)" for n, d in zip(names, legs, strict=True)])
-    ax.set_ylabel("time per leg [s]")
-    ax.set_title("Time from one cabinet to the next (the first leg from the start)")
-    ax.grid(axis="y", alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(out / "legs.png")
-    plt.close(fig)
+    legs = [[float(d) for r in results[n] for d in np.diff([0.0, *r.leg_done_s])] for n in names]
+    _box_figure(out / "legs.png", names, legs, "legs", "time per leg [s]",
+                "Time from one cabinet to the next (the first leg from the start)")  # fmt: skip
 
     fixed = [(name, kw["map"]) for name, kw in episodes.presets.items() if "map" in kw]
     fig, axes = plt.subplots(1, max(1, len(fixed)), figsize=(5 * max(1, len(fixed)), 5), dpi=110, squeeze=False)
