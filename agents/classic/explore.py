@@ -99,6 +99,10 @@ class ExploreAgentConfig:
         scan_matching: correct the odometry by correlative scan-to-map matching. Off by default:
             measured, its accepted corrections (1 cm, 0.11 deg steps) random-walk the heading by
             1-3 deg a minute, while the course's odometry drifts 0.2-0.6 deg a minute.
+        safety_floor_m: the safety filter lets nothing come closer to the footprint than this
+            plus twice the LRF's noise, and tries a command without its turn before scaling it
+            down (`MotionConfig.floor`, `drop_turn`; the hospital agent's): measured on dev
+            seeds 100-129, bumps 13.3 % -> 3.3 % (0: the old filter).
     """
 
     cell_m: float = 0.05
@@ -124,6 +128,7 @@ class ExploreAgentConfig:
     object_hits: float = 8.0
     stop_range_m: float = 0.3
     scan_matching: bool = False
+    safety_floor_m: float = 0.015
 
 
 # --- grids (numba) ------------------------------------------------------------------------------
@@ -326,7 +331,10 @@ class ExploreAgent(Agent):
     def __init__(self, spec: RobotSpec, config: ExploreAgentConfig | None = None) -> None:
         super().__init__(spec)
         self.config = config or ExploreAgentConfig()
-        self.motion = motion_for(spec)
+        floor = self.config.safety_floor_m
+        self.motion = dataclasses.replace(
+            motion_for(spec), floor=floor + 2.0 * spec.lrf.noise_m if floor > 0 else 0.0, drop_turn=floor > 0
+        )
         self.follow = dataclasses.replace(self.motion, repulsion_range=0.15, repulsion_gain=0.004)
         self.angles = np.ascontiguousarray(spec.beam_angles, dtype=np.float64)
         self._steps = lambda seconds: max(1, round(seconds / spec.dt_s))
