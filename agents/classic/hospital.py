@@ -395,7 +395,9 @@ class HospitalAgent(Agent):
         self.dwell_s = float(task.dwell_s)
         self.announce = getattr(task, "arrival", "dwell") == "announce"
         self._announcing = False  # this step's action announces an arrival
-        self.evidence = np.zeros(self.grid.shape)
+        self.evidence = np.zeros(self.grid.shape)  # what stands still
+        self.people_evidence = np.zeros(self.grid.shape)  # hits on people seen walking
+        self._seen_grid: np.ndarray | None = None  # both, thresholded (made when first asked)
         self.state = State.LOCALISE
         self.state_steps = 0
         self.done = 0
@@ -615,6 +617,8 @@ class HospitalAgent(Agent):
                     self.relocalised += 1
                     if math.hypot(self.pose.x - before.x, self.pose.y - before.y) > 0.3:
                         self.evidence *= 0.5  # built on the lost pose: fade it (passing beams clear the rest)
+                        self.people_evidence *= 0.5
+                        self._seen_grid = None
                 self.unhealthy_steps = 0
                 self.lost_attempts = 0
                 self._update_world(points)
@@ -689,20 +693,33 @@ class HospitalAgent(Agent):
         ex = self.pose.x + c * points[:, 0] - s * points[:, 1]
         ey = self.pose.y + s * points[:, 0] + c * points[:, 1]
         unexplained = self.localiser.distance_at(ex, ey) > cfg.unexplained_m
-        _update_evidence(
-            self.evidence,
-            g.x0,
-            g.y0,
-            g.resolution,
-            self.pose.x,
-            self.pose.y,
-            np.ascontiguousarray(ex),
-            np.ascontiguousarray(ey),
-            unexplained,
-            cfg.evidence_hit,
-            cfg.evidence_miss,
-            cfg.evidence_max,
-        )
+        person = np.zeros(len(points), dtype=bool)
+        for t in self.tracker.moving() if cfg.track_people else ():
+            person |= np.hypot(ex - t.position[0], ey - t.position[1]) <= t.radius_m + 0.15
+        ex, ey = np.ascontiguousarray(ex), np.ascontiguousarray(ey)
+        for grid, hits in ((self.evidence, unexplained & ~person), (self.people_evidence, unexplained & person)):
+            _update_evidence(
+                grid,
+                g.x0,
+                g.y0,
+                g.resolution,
+                self.pose.x,
+                self.pose.y,
+                ex,
+                ey,
+                hits,
+                cfg.evidence_hit,
+                cfg.evidence_miss,
+                cfg.evidence_max,
+            )
+        self._seen_grid = None
+
+    def seen(self) -> np.ndarray:
+        """The cells held to be obstacles the map does not show: still ones and people (bool)."""
+        if self._seen_grid is None:
+            block = self.config.evidence_block
+            self._seen_grid = (self.evidence >= block) | (self.people_evidence >= block)
+        return self._seen_grid
 
     def _track_people(self, ranges: FloatArray) -> None:
         """Cluster the scan's unexplained points into tracks; clear the cells moving ones left."""
@@ -722,7 +739,12 @@ class HospitalAgent(Agent):
                 self._cleared.add(key)
                 k = int(math.ceil((t.radius_m + 0.1) / cfg.cell_m))
                 r, c = self._cell(p)
-                self.evidence[max(r - k, 0) : r + k + 1, max(c - k, 0) : c + k + 1] = 0.0
+                window = (slice(max(r - k, 0), r + k + 1), slice(max(c - k, 0), c + k + 1))
+                self.people_evidence[window] = 0.0
+                if when < t.moving_since_s:  # seen before it was known to walk: in the still layer
+                    k = int(math.ceil(t.radius_m / cfg.cell_m))
+                    self.evidence[max(r - k, 0) : r + k + 1, max(c - k, 0) : c + k + 1] = 0.0
+                self._seen_grid = None
         if len(self._cleared) > 5000:
             self._cleared = {(i, w) for i, w in self._cleared if now - w < 10.0}
 
@@ -748,7 +770,7 @@ class HospitalAgent(Agent):
     def _remembered(self) -> FloatArray:
         """Robot-frame points within 1.2 m: the map's walls and the evidence cells."""
         g = self.grid
-        rows, cols = np.nonzero(self.evidence >= self.config.evidence_block)
+        rows, cols = np.nonzero(self.seen())
         seen = np.column_stack([g.x0 + (cols + 0.5) * g.resolution, g.y0 + (rows + 0.5) * g.resolution])
         pts = np.vstack([self.wall_points, seen])
         d = pts - np.array([self.pose.x, self.pose.y])
@@ -762,7 +784,7 @@ class HospitalAgent(Agent):
         evidence is inflated by only `squeeze_m`: the robot's half depth, for a gap between a box
         and a wall that it can pass sideways only without the extra margin."""
         cfg = self.config
-        seen = self.evidence >= cfg.evidence_block
+        seen = self.seen()
         inflate = cfg.squeeze_m if squeeze else cfg.inflate_m + 0.05
         out = (
             self.map_blocked.copy()
@@ -943,7 +965,7 @@ class HospitalAgent(Agent):
         """Whether the straight way from a to b keeps the robot's half width (0.2 m) and the
         margin off what the map does not explain: turned to face a cabinet early, the robot
         drives the last metre forward, which a box beside the way does not leave room for."""
-        seen = self.evidence >= self.config.evidence_block
+        seen = self.seen()
         if not seen.any():
             return True
         k = int(math.ceil((0.2 + self.config.unexplained_margin_m + 0.05) / self.config.cell_m))
@@ -957,12 +979,11 @@ class HospitalAgent(Agent):
         if self.map_clearance[r, c] < within:
             return False
         k = int(math.ceil(within / self.config.cell_m))
-        window = self.evidence[max(r - k, 0) : r + k + 1, max(c - k, 0) : c + k + 1]
-        return not bool((window >= self.config.evidence_block).any())
+        return not bool(self.seen()[max(r - k, 0) : r + k + 1, max(c - k, 0) : c + k + 1].any())
 
     def _path_blocked(self) -> bool:
         """Whether the next stretch of the path runs through a cell now blocked by evidence."""
-        seen = self.evidence >= self.config.evidence_block
+        seen = self.seen()
         if not seen.any() or not self.path:
             return False
         here = np.array([self.pose.x, self.pose.y])
@@ -1088,6 +1109,8 @@ class HospitalAgent(Agent):
         cfg = self.config
         if self.state_steps == 1:
             self.evidence *= 0.5  # fade, never wipe: what is really there is seen again
+            self.people_evidence *= 0.5
+            self._seen_grid = None
         t = self.state_steps * self.spec.dt_s
         unexplained = self._unexplained_near()
         far = len(unexplained) == 0 or float(np.hypot(unexplained[:, 0], unexplained[:, 1]).min()) > cfg.clear_m
@@ -1152,7 +1175,7 @@ class HospitalAgent(Agent):
         walking with their pause circles, the target's arrival square and the front the LRF fitted
         (map frame)."""
         g = self.grid
-        rows, cols = np.nonzero(self.evidence >= self.config.evidence_block)
+        rows, cols = np.nonzero(self.seen())
         evidence = np.column_stack([g.x0 + (cols + 0.5) * g.resolution, g.y0 + (rows + 0.5) * g.resolution])
         here = np.array([self.pose.x, self.pose.y])
         path = np.array([here, *self.path]) if self.path else np.zeros((0, 2))

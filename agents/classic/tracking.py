@@ -40,8 +40,9 @@ class TrackerConfig:
         gate_m: a cluster joins a track whose prediction is within this [m].
         alpha, beta: the alpha-beta filter's position and velocity gains.
         lost_s: a track not seen for this long is dropped [s].
-        moving_m, moving_window_s: a track that has moved this far within this window is moving
-            (and stays so) [m, s].
+        moving_m, moving_window_s, moving_margin_m: a track that has moved this far, and farther
+            than its largest extent seen plus the margin, within this window is moving (and stays
+            so) [m, s, m].
         door_margin_m: a cluster whose points lie within this of a door opening of the map is a
             door (closed), not a person [m].
         max_speed_mps: velocity estimates are capped at this (the course's movers walk at 0.5-0.6).
@@ -56,6 +57,7 @@ class TrackerConfig:
     lost_s: float = 1.5
     moving_m: float = 0.4
     moving_window_s: float = 3.0
+    moving_margin_m: float = 0.1
     door_margin_m: float = 0.1
     max_speed_mps: float = 0.8
 
@@ -71,6 +73,7 @@ class Track:
     seen_s: float
     history: list[tuple[float, FloatArray]] = field(default_factory=list)  # (time, position)
     moving: bool = False
+    moving_since_s: float = math.inf  # when it was first seen to be moving
 
     @property
     def radius_m(self) -> float:
@@ -217,7 +220,12 @@ class PeopleTracker:
         track.history = [(t, p) for t, p in track.history if time_s - t <= cfg.moving_window_s + 5.0]
         if not track.moving:
             window = [p for t, p in track.history if time_s - t <= cfg.moving_window_s]
-            track.moving = bool(float(np.hypot(*(window[-1] - window[0]))) >= cfg.moving_m)
+            # Farther than its own size: the centre of a box seen from another side moves too,
+            # by up to about its extent (a box taken for a person had its cells cleared).
+            needed = max(cfg.moving_m, track.extent_m + cfg.moving_margin_m)
+            track.moving = bool(float(np.hypot(*(window[-1] - window[0]))) >= needed)
+            if track.moving:
+                track.moving_since_s = time_s
 
     def moving(self) -> list[Track]:
         """The tracks that have been seen moving."""
