@@ -246,6 +246,18 @@ def test_closing_a_door_that_cuts_a_target_off_is_refused_naming_it() -> None:
         env.reset(seed=0, options={"cabinet_order": [0, 4]})
 
 
+def test_a_count_option_takes_an_exact_number_or_a_range_and_names_a_bad_one() -> None:
+    env = gym.make("PicoHospital-v0", map="hospital_2019", n_boxes=2, n_movers=1, closed_doors=1)
+    env.reset(seed=0)
+    scene = env.unwrapped.scene
+    assert (len(scene.boxes), len(scene.closed_doors)) == (2, 1)
+    for bad in ("2", (1, 2, 3), 2.5):
+        with pytest.raises(ValueError, match=r"n_boxes must be a range \(lo, hi\) or a single integer"):
+            gym.make("PicoHospital-v0", n_boxes=bad)
+    with pytest.raises(ValueError, match=r"n_movers must be a range .* 0 <= lo <= hi, got \(3, 1\)"):
+        gym.make("PicoHospital-v0", n_movers=(3, 1))
+
+
 def test_closing_a_door_lengthens_the_oracle_chain() -> None:
     env = hospital()
     lengths = {}

@@ -76,6 +76,13 @@ class HospitalRewardWeights:
                 raise ValueError(f"HospitalRewardWeights.{name} must be a finite number, got {value!r}")
 
 
+def _pair(name: str, value: object) -> tuple:
+    """`value` as a (lo, hi) pair, or a ValueError naming the option."""
+    if isinstance(value, str) or not hasattr(value, "__len__") or len(value) != 2:  # type: ignore[arg-type]
+        raise ValueError(f"{name} must be a range (lo, hi) or a single integer, got {value!r}")
+    return tuple(value)  # type: ignore[arg-type]
+
+
 @dataclass(frozen=True)
 class HospitalTaskConfig:
     """Rules of the hospital task and the ranges of its per-episode draws.
@@ -136,10 +143,13 @@ class HospitalTaskConfig:
         if not (isinstance(self.n_cabinets, int) and self.n_cabinets >= 1):
             raise ValueError(f"n_cabinets must be an integer >= 1, got {self.n_cabinets!r}")
         for name in ("closed_doors", "n_boxes", "n_movers"):
-            lo, hi = getattr(self, name)
+            value = getattr(self, name)
+            if isinstance(value, int) and not isinstance(value, bool):
+                object.__setattr__(self, name, (value, value))  # n means exactly n: (n, n)
+            lo, hi = _pair(name, getattr(self, name))
             if not (isinstance(lo, int) and isinstance(hi, int) and 0 <= lo <= hi):
                 raise ValueError(f"{name} must be a range (lo, hi) of integers with 0 <= lo <= hi, got {(lo, hi)}")
-        lo, hi = self.box_side_m
+        lo, hi = _pair("box_side_m", self.box_side_m)
         if not 0 < lo <= hi:
             raise ValueError(f"box_side_m must be a range (lo, hi) with 0 < lo <= hi, got {self.box_side_m}")
         for name in ("dwell_s", "time_limit_s", "idle_time_s"):
