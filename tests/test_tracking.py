@@ -54,6 +54,36 @@ def test_a_lost_track_is_dropped() -> None:
     assert tracker.tracks == []
 
 
+def test_a_person_seen_again_after_pausing_out_of_sight_is_still_a_person() -> None:
+    """Seen again where it could have walked, a dropped walking track comes back, still moving
+    (a new track would have to walk 0.4 m before the robot yields to it); a cluster farther than
+    it could have walked, or after `remember_s`, is someone (or something) else."""
+    tracker = PeopleTracker(TrackerConfig(lost_s=1.5, remember_s=5.0))
+    nothing = (np.zeros((0, 2)), np.zeros(0, bool))
+    for k in range(30):  # walks 1.5 m, then leaves the view
+        tracker.update(_blob((1.0 + 0.05 * k, 2.0)), np.ones(6, bool), 0.1 * k)
+    (person,) = tracker.moving()
+    for k in range(30, 60):  # 3 s out of sight: dropped, remembered
+        tracker.update(*nothing, 0.1 * k)
+    assert tracker.tracks == [] and tracker.dropped == [person]
+    tracker.update(_blob((2.9, 2.8)), np.ones(6, bool), 6.0)  # 1 m from where it was last seen
+    assert tracker.moving() == [person] and tracker.dropped == []
+    assert np.allclose(person.position, (2.9, 2.8)) and np.allclose(person.velocity, 0.0)
+
+    for k in range(61, 100):
+        tracker.update(*nothing, 0.1 * k)
+    tracker.update(_blob((8.0, 2.8)), np.ones(6, bool), 10.0)  # 5 m away after 4 s: too far
+    assert tracker.moving() == [] and tracker.tracks[0].id != person.id
+    late = PeopleTracker(TrackerConfig(lost_s=1.5, remember_s=5.0))
+    for k in range(30):
+        late.update(_blob((1.0 + 0.05 * k, 2.0)), np.ones(6, bool), 0.1 * k)
+    late.update(*nothing, 4.0)
+    late.update(*nothing, 8.5)  # forgotten 5 s after it was last seen
+    assert late.dropped == []
+    late.update(_blob((2.6, 2.0)), np.ones(6, bool), 8.6)
+    assert late.moving() == []
+
+
 def test_the_safety_floor_stops_a_slow_creep_into_a_wall() -> None:
     """Without a floor the slack is allowed afresh every step: a slow command creeps into a wall."""
     wall = np.column_stack([np.linspace(-0.5, 0.5, 41), np.full(41, 0.25)])  # 5 cm off the left side

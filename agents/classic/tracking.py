@@ -8,7 +8,9 @@ map's door openings is a closed door, not a person. Each cluster is associated w
 predicted track within a gate (greedy, nearest pairs first) and the track is updated with an
 alpha-beta filter (constant velocity). A track that has travelled far enough within a short window
 is *moving*: the course's people and carts walk at 0.5-0.6 m/s and stop only while the robot is
-near them (hospital-facts.md 1.6), boxes and closed doors never move.
+near them (hospital-facts.md 1.6), boxes and closed doors never move. A walking track that leaves
+the view is remembered for a while: seen again where it could have walked, it is the same person,
+still moving (a person who paused behind the robot is not a new, standing obstacle).
 
 What the hospital agent does with them: the points of a moving track are not evidence of a static
 obstacle (a person walking leaves no wall behind), the cells it walked through are cleared, its
@@ -46,6 +48,10 @@ class TrackerConfig:
         door_margin_m: a cluster whose points lie within this of a door opening of the map is a
             door (closed), not a person [m].
         max_speed_mps: velocity estimates are capped at this (the course's movers walk at 0.5-0.6).
+        remember_s, walk_speed_mps, walking_mps: a walking track (moving, or estimated at least
+            `walking_mps` fast) that was dropped is remembered for `remember_s` after it was last
+            seen; a new cluster within `gate_m` plus how far it could walk since then at
+            `walk_speed_mps` (the course's 0.5-0.6) is that person again [s, m/s, m/s].
     """
 
     gap_m: float = 0.2
@@ -60,6 +66,9 @@ class TrackerConfig:
     moving_margin_m: float = 0.1
     door_margin_m: float = 0.1
     max_speed_mps: float = 0.8
+    remember_s: float = 5.0
+    walk_speed_mps: float = 0.6
+    walking_mps: float = 0.25
 
 
 @dataclass
@@ -148,10 +157,12 @@ class PeopleTracker:
         self.config = config or TrackerConfig()
         self.doors = list(doors)
         self.tracks: list[Track] = []
+        self.dropped: list[Track] = []  # walking tracks no longer seen, kept for `remember_s`
         self._next_id = 0
 
     def reset(self) -> None:
         self.tracks = []
+        self.dropped = []
         self._next_id = 0
 
     def _on_door(self, points: FloatArray) -> bool:
@@ -195,13 +206,44 @@ class PeopleTracker:
             self._correct(self.tracks[j], clusters[i], time_s)
             joined.append((clusters[i], self.tracks[j]))
         for i, c in enumerate(clusters):
-            if i not in used_c:
+            if i in used_c:
+                continue
+            t = self._revive(c, time_s)
+            if t is None:
                 t = Track(self._next_id, c.centre, np.zeros(2), c.extent_m, time_s, [(time_s, c.centre)])
                 self._next_id += 1
-                self.tracks.append(t)
-                joined.append((c, t))
-        self.tracks = [t for t in self.tracks if time_s - t.seen_s <= cfg.lost_s]
+            self.tracks.append(t)
+            joined.append((c, t))
+        kept = [t for t in self.tracks if time_s - t.seen_s <= cfg.lost_s]
+        self.dropped += [
+            t
+            for t in self.tracks
+            if (t.moving or float(np.hypot(*t.velocity)) >= cfg.walking_mps) and time_s - t.seen_s > cfg.lost_s
+        ]
+        self.dropped = [t for t in self.dropped if time_s - t.seen_s <= cfg.remember_s]
+        self.tracks = kept
         return joined
+
+    def _revive(self, cluster: Cluster, time_s: float) -> Track | None:
+        """The dropped walking track a new cluster is, if one could have walked there since it was
+        last seen (a person who paused out of sight and is seen again stays a person: a new track
+        would have to walk before it counts as moving)."""
+        cfg = self.config
+        best, best_d = None, math.inf
+        for t in self.dropped:
+            reach = cfg.gate_m + cfg.walk_speed_mps * (time_s - t.seen_s)
+            d = float(np.hypot(*(cluster.centre - t.position)))
+            if d <= reach and d < best_d:
+                best, best_d = t, d
+        if best is None:
+            return None
+        self.dropped.remove(best)
+        best.position = cluster.centre.copy()
+        best.velocity = np.zeros(2)
+        best.extent_m = max(best.extent_m, cluster.extent_m)
+        best.seen_s = time_s
+        best.history.append((time_s, best.position.copy()))
+        return best
 
     def _correct(self, track: Track, cluster: Cluster, time_s: float) -> None:
         cfg = self.config
