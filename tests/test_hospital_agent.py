@@ -304,3 +304,32 @@ def test_a_kidnapped_robot_finds_itself_on_the_whole_map_and_finishes(seed: int,
     assert agent.relocalised >= 1
     assert back_s is not None and back_s < 15.0
     assert info["is_success"] and info["bumps"] == 0
+
+
+@pytest.mark.parametrize("estimate_off", [(0.0, 0.0, 0.0), (0.04, -0.03, math.radians(3.0))])
+def test_docking_takes_depth_and_angle_from_the_front_the_lrf_sees(estimate_off: tuple) -> None:
+    """A cabinet front 0.6 m wide, 0.55 m away and turned 10 deg, seen with the LRF's range noise
+    (uniform +-1 cm along each beam) next to a wall; the pose estimate (which places the expected
+    front) is off by a few cm and degrees. The fitted depth and heading error are the true ones
+    (the line gives them); only the position along the front follows the estimate."""
+    from pico_gym.agents.classic.hospital import fit_front
+
+    rng = np.random.default_rng(0)
+    turn = math.radians(10.0)
+    u = np.array([-math.sin(turn), math.cos(turn)])  # along the front
+    n = np.array([math.cos(turn), math.sin(turn)])  # its normal, away from the robot
+    centre = 0.55 * n
+    true_front = np.array([centre - 0.3 * u, centre + 0.3 * u])
+    seen = centre + np.outer(np.linspace(-0.3, 0.3, 40), u)
+    seen *= (1.0 + rng.uniform(-0.01, 0.01, 40) / np.hypot(seen[:, 0], seen[:, 1]))[:, None]  # along the beam
+    wall = np.column_stack([np.linspace(-0.5, 1.5, 60), np.full(60, -0.9)])  # unrelated points
+    dx, dy, dth = estimate_off
+    c, s = math.cos(dth), math.sin(dth)
+    expected = (true_front @ np.array([[c, s], [-s, c]])) + np.array([dx, dy])  # where the estimate puts it
+    fit = fit_front(np.vstack([seen, wall]), expected, depth_m=0.33)
+    assert fit is not None and fit.n_points >= 35
+    assert abs(fit.depth_m - 0.55) < 0.01
+    assert abs(math.degrees(fit.heading_error) - 10.0) < 1.0  # turn 10 deg to face it, whatever the estimate
+    along_goal = float((fit.goal - centre) @ n)
+    assert abs(along_goal + 0.33) < 0.01  # 0.33 m in front of the seen line
+    assert fit_front(wall, expected, depth_m=0.33) is None  # no front where one is expected: no fit
