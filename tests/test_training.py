@@ -303,3 +303,22 @@ def test_without_a_shipped_point_goal_policy_the_error_says_so():
         pytest.skip("a ppo-pointgoal policy is shipped")
     with pytest.raises(FileNotFoundError, match="no ppo-pointgoal policy is shipped"):
         make_agent("ppo-pointgoal", gym.make("PicoHospital-v0"))
+
+
+def test_demonstrations_cover_the_training_variants(tmp_path, monkeypatch):
+    """The teacher's episodes are spread over `train_env_variants` as the training envs are."""
+    import pico_gym.train.ppo as ppo
+
+    path = tmp_path / "c.yaml"
+    path.write_text(TINY + "  train_env_variants: [{}, {n_obstacles: 2}]\n")
+    made = []
+    real = ppo.make_plain_env
+
+    def spy(config, **kwargs):
+        env = real(config, **kwargs)
+        made.append(kwargs.get("n_obstacles", 0))
+        return env
+
+    monkeypatch.setattr(ppo, "make_plain_env", spy)
+    xs, ys, report = ppo.collect_demonstrations(load_config(path), 4)
+    assert made == [0, 2] and len(xs) == len(ys) > 0 and 0.0 <= report["teacher_success"] <= 1.0

@@ -375,21 +375,25 @@ def policy_agent(config: TrainConfig, spec: RobotSpec, model: Any) -> Any:
 
 # --- behaviour cloning ---------------------------------------------------------------------
 def collect_demonstrations(config: TrainConfig, episodes: int, teacher: str = "classic") -> tuple[Any, Any, dict]:
-    """(policy inputs, unit actions) of `teacher` on `episodes` training-seed rooms (for a hybrid
-    config: the classic part's own commands on the steps the policy is to drive)."""
+    """(policy inputs, unit actions) of `teacher` on `episodes` training-seed rooms, spread over
+    `train_env_variants` as the training envs are (for a hybrid config: the classic part's own
+    commands on the steps the policy is to drive)."""
     if config.pico["agent"] == "hybrid":
         return _hybrid_demonstrations(config, episodes)
     from pico_gym.agents import make_agent
     from pico_gym.wrappers import LearningEncoder, unit_action
 
-    env = make_plain_env(config, **{**config.pico["env_kwargs"], **config.pico["train_env_kwargs"]})
-    spec = RobotSpec.of(env)
+    # Episode k in variant k % len (as the training envs): the teacher shows the whole mix.
+    base = {**config.pico["env_kwargs"], **config.pico["train_env_kwargs"]}
+    envs = [make_plain_env(config, **{**base, **v}) for v in config.pico["train_env_variants"] or [{}]]
+    agents = [make_agent(teacher, e) for e in envs]
+    spec = RobotSpec.of(envs[0])
     encoder = LearningEncoder(spec.lrf, spec.robot, spec.dt_s, config.learning)
-    agent = make_agent(teacher, env)
     low, high = spec.robot.action_low, spec.robot.action_high
     xs, ys, successes = [], [], 0
     rng = np.random.default_rng([TRAIN_SEED_MIN, episodes])
-    for _ in range(episodes):
+    for k in range(episodes):
+        env, agent = envs[k % len(envs)], agents[k % len(agents)]
         obs, info = env.reset(seed=int(rng.integers(TRAIN_SEED_MIN, 2**31)))
         agent.reset(obs, info)
         x = encoder.reset(obs)
