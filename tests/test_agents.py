@@ -163,8 +163,27 @@ def test_classic_thresholds_are_times_not_steps() -> None:
     fine = make_agent("classic", gym.make("PicoEscape-v0", dt_s=0.05))
     assert isinstance(coarse, ClassicAgent) and coarse.state is EscapeState.START
     ratio = coarse.spec.dt_s / fine.spec.dt_s
-    for name in ("_replan", "_memory", "_start_look", "_start_timeout", "_explore_timeout", "_backoff"):
+    for name in ("_replan", "_memory", "_start_look", "_start_timeout", "_explore_timeout", "_backoff_steps"):
         assert getattr(fine, name) == round(ratio * getattr(coarse, name)), name  # the same seconds
+
+
+def test_backoff_moves_away_then_looks_again() -> None:
+    """BACKOFF (stuck or boxed in) steps, moves away from what is near and hands over to LOOK after
+    `backoff_s` (its step count once shadowed the state's handler: every BACKOFF crashed)."""
+    from pico_gym.agents.classic.agent import EscapeState
+
+    env = gym.make("PicoEscape-v0")
+    agent = make_agent("classic", env)
+    obs, info = env.reset(seed=0)
+    agent.reset(obs, info)
+    agent._go(EscapeState.BACKOFF)
+    states = []
+    for _ in range(round(agent.config.backoff_s / agent.spec.dt_s) + 2):
+        action = agent.act(obs)
+        assert env.action_space.contains(action)
+        states.append(agent.state)
+        obs, *_ = env.step(action)
+    assert states[0] is EscapeState.BACKOFF and states[-1] is EscapeState.LOOK
 
 
 def test_perception_is_one_value_both_agents_read() -> None:

@@ -118,7 +118,7 @@ class ClassicAgent(Agent):
         steps = self._steps
         self._replan, self._memory = max(steps(cfg.replan_s), 1), steps(cfg.memory_s)
         self._start_look, self._start_timeout = steps(cfg.start_look_s), steps(cfg.start_timeout_s)
-        self._explore_timeout, self._backoff = steps(cfg.explore_timeout_s), steps(cfg.backoff_s)
+        self._explore_timeout, self._backoff_steps = steps(cfg.explore_timeout_s), steps(cfg.backoff_s)
         self._corridor_grace = steps(cfg.corridor_grace_s)
         self._handlers = {
             EscapeState.START: self._start,
@@ -442,7 +442,7 @@ class ClassicAgent(Agent):
         return float(v[0]), float(v[1]), heading_rate(bearing, self.motion) if self._can_rotate(obstacles) else 0.0
 
     def _backoff(self, pose: Pose, obstacles: FloatArray) -> tuple[float, float, float]:
-        if self.state_steps > self._backoff:
+        if self.state_steps > self._backoff_steps:
             self.side = 0.0
             self.chosen = None
             self._go(EscapeState.LOOK)
