@@ -323,6 +323,25 @@ def _components(mask: np.ndarray) -> list[np.ndarray]:
 # --- the agent ----------------------------------------------------------------------------------
 
 
+def _opening(cells: np.ndarray, unknown: np.ndarray, occupied: np.ndarray, half: int = 3) -> bool:
+    """Whether a small frontier opens into the unknown (a door seen at a grazing angle) rather
+    than into a gap of a mapped wall: beside some unknown cell it touches, across the way into
+    it, at least 5 of the 7 cells are not occupied."""
+    rows, cols = unknown.shape
+    for r, c in cells:
+        for dr, dc in ((1, 0), (-1, 0), (0, 1), (0, -1)):
+            ur, uc = r + dr, c + dc
+            if not (0 <= ur < rows and 0 <= uc < cols and unknown[ur, uc]):
+                continue
+            clear = 0
+            for k in range(-half, half + 1):
+                qr, qc = ur + k * dc, uc + k * dr  # across the direction (dr, dc)
+                clear += 0 <= qr < rows and 0 <= qc < cols and not occupied[qr, qc]
+            if clear >= 2 * half - 1:
+                return True
+    return False
+
+
 class ExploreAgent(Agent):
     """The classic explore strategy (see the module docstring)."""
 
@@ -387,6 +406,7 @@ class ExploreAgent(Agent):
         self.still_steps = 0
         self.retried: list[FloatArray] = []
         self.at_standoff = False
+        self.small_goal = False
         self.guard = np.zeros((0, 2))
 
     def belief(self) -> None:
@@ -576,8 +596,21 @@ class ExploreAgent(Agent):
                 self.retried += fresh
                 self.given_up = [q for q in self.given_up if not any(q is f for f in fresh)]
                 found = self._plan_to_frontier(self._unknown_mask())
+            self.small_goal = False
+            if not found:
+                # A door seen only at a grazing angle leaves a frontier of a cell or two (dev
+                # seeds 106, 107: a room never entered): look at the small ones before parking.
+                # Most are gaps in a mapped wall: one looked at from within 1 m is done (a door
+                # there would have shown the room behind it, a large frontier).
+                found = self.small_goal = self._plan_to_frontier(self._unknown_mask(), min_cells=1)
             if not found:
                 self._go(State.PARK)
+                return 0.0, 0.0, 0.0
+        if self.small_goal and self.goal is not None:
+            if np.linalg.norm(self.goal - np.array([self.pose.x, self.pose.y])) < 1.0:
+                self.given_up.append(self.goal.copy())
+                self.goal = None
+                self.path = []
                 return 0.0, 0.0, 0.0
         return self._follow(near)
 
@@ -746,7 +779,10 @@ class ExploreAgent(Agent):
             r0, r1, c0, c1 = self.view
             # Not looked at since parking, or never seen (a start in "find" maps as it goes).
             unseen = (free & ~self.checked[r0:r1, c0:c1]) | (~occupied & ~free)
-            if not self._plan_to_frontier(unseen):
+            # Large unseen parts first (a room not looked into since parking); the specks the
+            # blind sector leaves round the robot cost a trip each (dev seed 117 spent 160 s by
+            # the parking wall).
+            if not self._plan_to_frontier(unseen, min_cells=15) and not self._plan_to_frontier(unseen):
                 self.checked[:] = False  # looked everywhere: look again
                 return 0.0, 0.0, 0.8
         return self._follow(near)
@@ -919,9 +955,12 @@ class ExploreAgent(Agent):
         costs = CostGrid.from_clearance(self.view_grid, clearance, cfg.comfort_m, 4.0, cfg.inflate_m)
         return costs, clearance, free
 
-    def _plan_to_frontier(self, unknown: np.ndarray, within: np.ndarray | None = None) -> bool:
+    def _plan_to_frontier(
+        self, unknown: np.ndarray, within: np.ndarray | None = None, min_cells: int | None = None
+    ) -> bool:
         """Plan to the best frontier: free cells next to `unknown` cells (nearest, weighted by size)."""
         cfg = self.config
+        min_cells = cfg.frontier_min_cells if min_cells is None else min_cells
         costs, clearance, free = self._costs()
         region = free if within is None else within
         neighbour = np.zeros_like(unknown)
@@ -936,8 +975,11 @@ class ExploreAgent(Agent):
         best, best_score = None, math.inf
         p = self.view_grid
         self.frontiers = []
+        occupied = self._coarse()[0]
         for cells in _components(frontier):
-            if len(cells) < cfg.frontier_min_cells:
+            if len(cells) < min_cells:
+                continue
+            if len(cells) < cfg.frontier_min_cells and not _opening(cells, unknown, occupied):
                 continue
             d = field.distance[cells[:, 0], cells[:, 1]]
             k = int(np.argmin(d))
