@@ -777,8 +777,11 @@ class ExploreAgent(Agent):
                 return 0.0, 0.0, 0.0
             occupied, free = self._coarse()
             r0, r1, c0, c1 = self.view
-            # Not looked at since parking, or never seen (a start in "find" maps as it goes).
-            unseen = (free & ~self.checked[r0:r1, c0:c1]) | (~occupied & ~free)
+            # Not looked at since parking; or never seen, for a start in "find" (it maps as it
+            # goes; after exploring, what was never seen is the inside of walls and the outside).
+            unseen = free & ~self.checked[r0:r1, c0:c1]
+            if self.phase == "find":
+                unseen |= ~occupied & ~free
             # Large unseen parts first (a room not looked into since parking); the specks the
             # blind sector leaves round the robot cost a trip each (dev seed 117 spent 160 s by
             # the parking wall).
