@@ -1065,7 +1065,12 @@ class ExploreAgent(Agent):
         if not self.path:
             return 0.0, 0.0, 0.0
         if self.goal is not None:
-            remaining = float(np.linalg.norm(self.goal - here))
+            # Progress along the path, not towards the goal: a way round a wall first leads away
+            # from it (dev seed 146 gave up the hallway's far leg from a room beside it, and
+            # parked with two rooms unseen).
+            remaining = float(np.linalg.norm(self.path[0] - here)) + sum(
+                float(np.linalg.norm(b - a)) for a, b in zip(self.path[:-1], self.path[1:], strict=False)
+            )
             if remaining < self.best - 0.2:
                 self.best, self.best_step = remaining, self.steps
             elif self.steps - self.best_step > self._steps(cfg.give_up_s):
