@@ -322,3 +322,21 @@ def test_demonstrations_cover_the_training_variants(tmp_path, monkeypatch):
     monkeypatch.setattr(ppo, "make_plain_env", spy)
     xs, ys, report = ppo.collect_demonstrations(load_config(path), 4)
     assert made == [0, 2] and len(xs) == len(ys) > 0 and 0.0 <= report["teacher_success"] <= 1.0
+
+
+def test_ship_counts_a_checkpoint_between_evaluations_and_a_start_from_a_shipped_policy(tmp_path):
+    """The card's wall clock for a checkpoint between two evaluations is interpolated; a run
+    started (--init-from) from a policy that is not a run directory adds nothing and is named."""
+    from pico_gym.train.ship import history, wall_clock
+
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "config.yaml").write_text(yaml.safe_dump({"run": {"command": "pico-gym train --config x.yaml"}}))
+    (run / "eval.csv").write_text("timesteps,wall_clock_s\n5500000,60.0\n6000000,180.0\n")
+    (run / "init_from.json").write_text(json.dumps({"checkpoint": "agents/models/ppo_escape.zip", "timesteps": 0}))
+    assert wall_clock(run, 5750000) == pytest.approx(120.0)
+    assert wall_clock(run, 6000000) == pytest.approx(180.0)
+    assert wall_clock(run, 7000000) is None  # after the last evaluation: unknown
+    lines = history(run)
+    assert "agents/models/ppo_escape.zip" in lines[0] and "not a run directory" in lines[0]
+    assert lines[-1] == "`pico-gym train --config x.yaml`"

@@ -47,6 +47,9 @@ class Target:
     bump_target: float | None
     realism: bool
     privileged: str = ""
+    # Further rows on the same seeds: (name, env kwargs); e.g. rooms with boxes for the escape policy.
+    variants: tuple[tuple[str, dict[str, Any]], ...] = ()
+    variants_target: float | None = None  # success over all the variants' episodes
 
     @property
     def model(self) -> Path:
@@ -57,6 +60,8 @@ TARGETS = {
     "escape": Target(
         "ppo", SHIPPED_POLICY, SHIPPED_POLICY.parent / "MODEL_CARD.md", "PicoEscape-v0",
         "PicoEscape-v0's generated rooms", 0.95, 0.02, True,
+        variants=(("1 box", {"n_obstacles": 1}), ("2 boxes", {"n_obstacles": 2}), ("3 boxes", {"n_obstacles": 3})),
+        variants_target=0.95,
     ),
     "hospital-pointgoal": Target(
         "ppo-pointgoal", SHIPPED_POINTGOAL_POLICY, SHIPPED_POINTGOAL_POLICY.parent / "HOSPITAL_POINTGOAL_CARD.md",
@@ -97,16 +102,25 @@ def wall_clock(run_dir: Path, timesteps: int) -> float | None:
     bc = run_dir / "behaviour_cloning.json"
     seconds = json.loads(bc.read_text())["seconds"] if bc.exists() else 0.0
     rows = list(csv.DictReader((run_dir / "eval.csv").open())) if (run_dir / "eval.csv").exists() else []
-    at = [float(r["wall_clock_s"]) for r in rows if int(r["timesteps"]) == timesteps]
+    points = sorted((int(r["timesteps"]), float(r["wall_clock_s"])) for r in rows)
+    at = [w for t, w in points if t == timesteps]
     if not at:
-        return None
+        # A checkpoint between two evaluations: interpolated.
+        before_t = [(t, w) for t, w in points if t < timesteps]
+        after_t = [(t, w) for t, w in points if t > timesteps]
+        if not before_t or not after_t:
+            return None
+        (t0, w0), (t1, w1) = before_t[-1], after_t[0]
+        at = [w0 + (w1 - w0) * (timesteps - t0) / (t1 - t0)]
     init = run_dir / "init_from.json"
     if init.exists():
         parent = json.loads(init.read_text())
-        before = wall_clock(Path(parent["checkpoint"]).parent.parent, int(parent["timesteps"]))
-        if before is None:
-            return None
-        seconds += before
+        parent_run = Path(parent["checkpoint"]).parent.parent
+        if (parent_run / "config.yaml").exists():  # else a shipped policy, not a run: not counted here
+            before = wall_clock(parent_run, int(parent["timesteps"]))
+            if before is None:
+                return None
+            seconds += before
     return round(seconds + at[0], 1)
 
 
@@ -117,8 +131,12 @@ def history(run_dir: Path) -> list[str]:
     init = run_dir / "init_from.json"
     if init.exists():
         parent = json.loads(init.read_text())
-        lines += history(Path(parent["checkpoint"]).parent.parent)
-        lines.append(f"then from its checkpoint at {parent['timesteps']:,} steps:")
+        parent_run = Path(parent["checkpoint"]).parent.parent
+        if (parent_run / "config.yaml").exists():
+            lines += history(parent_run)
+            lines.append(f"then from its checkpoint at {parent['timesteps']:,} steps:")
+        else:
+            lines.append(f"started from the policy `{parent['checkpoint']}` (not a run directory here), then:")
     bc = run_dir / "behaviour_cloning.json"
     if bc.exists():
         report = json.loads(bc.read_text())
@@ -184,6 +202,14 @@ def ship(
         hard, _ = _evaluate(target, seeds, {**(meta.get("env_kwargs") or {}), **REALISM})
         rows.append(_row("noise x2 + slip", hard))
         evaluation["realism"] = {"seeds": [seeds[0], seeds[-1]], "env_kwargs": REALISM, **hard.to_dict()}
+    pooled = []
+    for name, kwargs in target.variants:
+        summary_v, records_v = _evaluate(target, seeds, {**(meta.get("env_kwargs") or {}), **kwargs})
+        rows.append(_row(name, summary_v))
+        evaluation[name] = {"seeds": [seeds[0], seeds[-1]], "env_kwargs": kwargs, **summary_v.to_dict()}
+        pooled += records_v
+    if pooled:
+        evaluation["variants_pooled"] = summarize(pooled).to_dict()
     check = records[:CHECK_EPISODES]
     meta.update(
         source=str(source),
@@ -217,6 +243,14 @@ def _write_card(meta: dict[str, Any], config: dict[str, Any], rows: list[str], t
     if target.bump_target is not None:
         targets += f"), bump rate <= {100 * target.bump_target:.0f} % (" + (
             "met" if generated["bump_rate"] <= target.bump_target else "NOT met"
+        )
+    if target.variants_target is not None and "variants_pooled" in meta["evaluation"]:
+        pooled = meta["evaluation"]["variants_pooled"]
+        names = ", ".join(n for n, _ in target.variants)
+        targets += (
+            f"), success over the {names} rows {100 * pooled['success_rate']:.1f} % >= "
+            f"{100 * target.variants_target:.0f} % ("
+            + ("met" if pooled["success_rate"] >= target.variants_target else "NOT met")
         )
     lines = [
         f"# Model card: `{name}` (the `{target.agent}` agent's shipped policy)",
