@@ -638,15 +638,8 @@ class ExploreAgent(Agent):
                 v *= 0.15 / speed
             if not self.at_standoff:
                 error = wrap_angle(math.atan2(*(standoff - here)[::-1]) - self.pose.theta)
-                return (
-                    (float(v[0]), float(v[1]), heading_rate(error, self.motion))
-                    if abs(error) < 0.5
-                    else (
-                        0.0,
-                        0.0,
-                        heading_rate(error, self.motion),
-                    )
-                )
+                turn = heading_rate(error, self.motion)
+                return (float(v[0]), float(v[1]), turn) if abs(error) < 0.5 else (0.0, 0.0, turn)  # face it first
             error = wrap_angle(heading - self.pose.theta)
             # A door jamb beside the parking spot may leave no room to turn the last few degrees
             # (dev seed 117: 6 cm beside the robot, 11 deg to go, 400 s at the stand-off): within
