@@ -9,7 +9,7 @@ import numpy as np
 
 import pico_gym  # noqa: F401
 from pico_gym.agents import make_agent
-from pico_gym.agents.classic.explore import ExploreAgent, State, _distance_transform
+from pico_gym.agents.classic.explore import ExploreAgent, State, _distance_transform, _opening
 from pico_gym.tasks.explore import OccupancyBelief
 from pico_gym.world.geometry import compose, point_clearance
 
@@ -119,3 +119,39 @@ def test_distance_transform_is_the_chamfer_distance() -> None:
     blocked[2, 2] = True
     d = _distance_transform(blocked, 0.1, 1.0)
     assert d[2, 2] == 0.0 and d[2, 3] == 0.1 and abs(d[3, 3] - 0.1 * math.sqrt(2)) < 1e-12 and d[2, 4] == 0.2
+
+
+def test_parking_puts_the_pose_back_at_the_wall_when_the_wheels_slip() -> None:
+    """Dev seed 102: nothing straight ahead in range, so the scan cannot tell the robot stopped at
+    the wall; the odometry counting 8 cm past the (refitted) wall ends the reverse, and the pose
+    is put back at the wall (it used to count 0.7 m against it and search with that error)."""
+    env = explore_env()
+    agent = make_agent("classic", env)
+    obs, info = env.reset(seed=102)
+    agent.reset(obs, {"task": info["task"]})
+    for _ in range(6000):
+        obs, _, terminated, truncated, info = env.step(agent.act(obs))
+        if agent.state is State.PARKED or terminated or truncated:
+            break
+    assert agent.state is State.PARKED and info["parked"] and info["bumps"] == 0
+    truth = compose(env.unwrapped._odom_from_map, env.unwrapped.pose)
+    error = np.array([agent.pose.x - truth.x, agent.pose.y - truth.y])
+    _, normal = agent.wall
+    assert abs(float(error @ normal)) < 0.03  # off the wall: as touched
+    assert float(np.hypot(*error)) < 0.15  # along it: the odometry's own drift (it was 0.7 m)
+
+
+def test_a_small_frontier_counts_when_it_opens_into_the_unknown_not_at_a_gap_in_a_wall() -> None:
+    """A door seen at a grazing angle leaves a frontier of a cell or two: looked at when the
+    unknown beside it is open across the way in, not when it is a hole in a mapped wall."""
+    n = 20
+    unknown = np.zeros((n, n), dtype=bool)
+    occupied = np.zeros((n, n), dtype=bool)
+    occupied[10, :] = True  # a wall along row 10; free below, unknown above
+    unknown[11:, :] = True
+    occupied[10, 8] = False  # a one-cell hole in the mapped wall
+    unknown[10, 8] = True
+    assert not _opening(np.array([[9, 8]]), unknown, occupied)
+    occupied[10, 5:12] = False  # a door 0.7 m wide, seen only through its near edge
+    unknown[10, 5:12] = True
+    assert _opening(np.array([[9, 8]]), unknown, occupied)
