@@ -860,8 +860,9 @@ class ExploreAgent(Agent):
         return points - away * np.minimum(pull_m, np.maximum(d - 0.005, 0.0))[:, None]
 
     def _mapped_near(self, radius: float) -> FloatArray:
-        """Cells within `radius` of the robot where the LRF has hit something at least twice, in
-        the robot frame (for the blind sector: what was seen there, even if since grazed)."""
+        """Cells within `radius` of the robot where the LRF has hit something at least twice, and
+        cells never seen free within 15 cm of those, in the robot frame (for the blind sector:
+        what was seen there, even if since grazed, and what may stand beside it unseen)."""
         g = self.grid
         r, c = int((self.pose.y - g.y0) / g.resolution), int((self.pose.x - g.x0) / g.resolution)
         k = int(math.ceil(radius / g.resolution))
