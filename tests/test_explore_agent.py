@@ -9,7 +9,14 @@ import numpy as np
 
 import pico_gym  # noqa: F401
 from pico_gym.agents import make_agent
-from pico_gym.agents.classic.explore import ExploreAgent, State, _distance_transform, _opening
+from pico_gym.agents.classic.explore import (
+    ExploreAgent,
+    State,
+    _component_sizes,
+    _components,
+    _distance_transform,
+    _opening,
+)
 from pico_gym.tasks.explore import OccupancyBelief
 from pico_gym.world.geometry import compose, point_clearance
 
@@ -155,3 +162,14 @@ def test_a_small_frontier_counts_when_it_opens_into_the_unknown_not_at_a_gap_in_
     occupied[10, 5:12] = False  # a door 0.7 m wide, seen only through its near edge
     unknown[10, 5:12] = True
     assert _opening(np.array([[9, 8]]), unknown, occupied)
+
+
+def test_component_sizes_are_those_of_the_components() -> None:
+    """The compiled labelling the search uses gives each cell its 8-connected component's size."""
+    rng = np.random.default_rng(0)
+    for _ in range(30):
+        mask = rng.random((30, 40)) < rng.uniform(0.2, 0.7)
+        expected = np.zeros(mask.shape, dtype=np.int64)
+        for cells in _components(mask):
+            expected[cells[:, 0], cells[:, 1]] = len(cells)
+        assert np.array_equal(_component_sizes(mask), expected)

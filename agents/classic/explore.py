@@ -290,6 +290,42 @@ def _distance_transform(blocked: np.ndarray, res: float, cap: float) -> np.ndarr
     return d
 
 
+@njit
+def _component_sizes(mask: np.ndarray) -> np.ndarray:
+    """Per cell, the size of its 8-connected component of `mask` (0 outside the mask); the
+    components of `_components`, compiled (the search labels thousands of cells a second)."""
+    rows, cols = mask.shape
+    label = np.zeros((rows, cols), dtype=np.int64)
+    sizes = [0]
+    stack = np.empty(rows * cols, dtype=np.int64)
+    for r0 in range(rows):
+        for c0 in range(cols):
+            if not mask[r0, c0] or label[r0, c0]:
+                continue
+            n = len(sizes)
+            label[r0, c0] = n
+            top, count = 1, 0
+            stack[0] = r0 * cols + c0
+            while top:
+                top -= 1
+                r, c = stack[top] // cols, stack[top] % cols
+                count += 1
+                for dr in (-1, 0, 1):
+                    for dc in (-1, 0, 1):
+                        rr, cc = r + dr, c + dc
+                        if 0 <= rr < rows and 0 <= cc < cols and mask[rr, cc] and not label[rr, cc]:
+                            label[rr, cc] = n
+                            stack[top] = rr * cols + cc
+                            top += 1
+            sizes.append(count)
+    table = np.array(sizes)
+    out = np.zeros((rows, cols), dtype=np.int64)
+    for r in range(rows):
+        for c in range(cols):
+            out[r, c] = table[label[r, c]]
+    return out
+
+
 def _components(mask: np.ndarray) -> list[np.ndarray]:
     """8-connected components of a boolean mask, as arrays of (row, col)."""
     seen = np.zeros(mask.shape, dtype=bool)
@@ -407,7 +443,6 @@ class ExploreAgent(Agent):
         self.retried: list[FloatArray] = []
         self.at_standoff = False
         self.small_goal = False
-        self.guard = np.zeros((0, 2))
 
     def belief(self) -> None:
         """No pose on a given map to report (the explore agent has no map frame to localise in)."""
@@ -480,7 +515,6 @@ class ExploreAgent(Agent):
         # 3.3 -> 13.3 %); the field's local minimum they make in a doorway (dev seed 123: 500 s
         # still) is escaped in `_follow`.
         near = np.vstack([near, self._wary(behind[blind])])
-        self.guard = near
         if self.stored is not None:
             self._look_for_object(ranges)
         moving = math.hypot(delta.x, delta.y) > 0.003 or abs(delta.theta) > 0.01
@@ -503,7 +537,7 @@ class ExploreAgent(Agent):
             return np.array([vx, vy, w], dtype=np.float32)
         vx, vy, w = getattr(self, f"_{self.state.value}")(ranges, near, odom, delta)
         if self.state is not State.REVERSE:
-            vx, vy, w = self._filtered(vx, vy, w)
+            vx, vy, w = self._filtered(near, vx, vy, w)
         self.previous_odom = odom
         self.previous_ranges = ranges
         return np.array([vx, vy, w], dtype=np.float32)
@@ -644,7 +678,7 @@ class ExploreAgent(Agent):
             # A door jamb beside the parking spot may leave no room to turn the last few degrees
             # (dev seed 117: 6 cm beside the robot, 11 deg to go, 400 s at the stand-off): within
             # the rule's 15 deg, reverse at the heading it has (the reverse corrects it if it can).
-            cramped = abs(error) < 0.25 and self._filtered(0.0, 0.0, heading_rate(error, self.motion))[2] == 0.0
+            cramped = abs(error) < 0.25 and self._filtered(near, 0.0, 0.0, heading_rate(error, self.motion))[2] == 0.0
             if distance < 0.06 and (abs(error) < 0.03 or cramped):
                 self._go(State.REVERSE)
                 self.stuck = 0
@@ -747,7 +781,7 @@ class ExploreAgent(Agent):
         correction = -along * float(np.clip(2.0 * offset, -0.03, 0.03))  # map frame
         c, s = math.cos(self.pose.theta), math.sin(self.pose.theta)
         vy = -s * correction[0] + c * correction[1]
-        w = self._safe_turn(self.guard, heading_rate(wrap_angle(heading - self.pose.theta), self.motion))
+        w = self._safe_turn(near, heading_rate(wrap_angle(heading - self.pose.theta), self.motion))
         return -cfg.reverse_mps, float(vy), w
 
     def _parked(self, ranges: FloatArray, near: FloatArray, odom: Pose, delta: Pose) -> tuple[float, float, float]:
@@ -783,10 +817,7 @@ class ExploreAgent(Agent):
             # blind sector leaves round the robot cost a trip each (dev seed 117 spent 160 s by
             # the parking wall). Large by the unseen area, not by the frontier's length (the
             # frontier across a 1.2 m hallway is 12 cells).
-            large = np.zeros_like(unseen)
-            for cells in _components(unseen):
-                if len(cells) >= 30:
-                    large[cells[:, 0], cells[:, 1]] = True
+            large = _component_sizes(unseen) >= 30
             if not self._plan_to_frontier(large) and not self._plan_to_frontier(unseen):
                 self.checked[:] = False  # looked everywhere: look again
                 return 0.0, 0.0, 0.8
@@ -1116,12 +1147,12 @@ class ExploreAgent(Agent):
             v = v * 0.2  # turn first
         return float(v[0]), float(v[1]), self._safe_turn(near, heading_rate(error, self.motion))
 
-    def _filtered(self, vx: float, vy: float, w: float) -> tuple[float, float, float]:
-        """A command as the safety filters let it through (in view, clear of `self.guard`)."""
+    def _filtered(self, near: FloatArray, vx: float, vy: float, w: float) -> tuple[float, float, float]:
+        """A command as the safety filters let it through (in view, clear of `near`)."""
         v = keep_in_view(np.array([vx, vy]), self.motion)
-        vx, vy, w = safety_filter(self.guard, (float(v[0]), float(v[1]), float(w)), self.motion)
-        w = self._safe_turn(self.guard, w)
-        return self._no_creep(self.guard, vx, vy, w)
+        vx, vy, w = safety_filter(near, (float(v[0]), float(v[1]), float(w)), self.motion)
+        w = self._safe_turn(near, w)
+        return self._no_creep(near, vx, vy, w)
 
     def _no_creep(self, near: FloatArray, vx: float, vy: float, w: float) -> tuple[float, float, float]:
         """Stop a command that brings anything within 2.5 cm of the footprint closer still (the
