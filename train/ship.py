@@ -112,31 +112,36 @@ def wall_clock(run_dir: Path, timesteps: int) -> float | None:
             return None
         (t0, w0), (t1, w1) = before_t[-1], after_t[0]
         at = [w0 + (w1 - w0) * (timesteps - t0) / (t1 - t0)]
-    init = run_dir / "init_from.json"
-    if init.exists():
-        parent = json.loads(init.read_text())
-        parent_run = Path(parent["checkpoint"]).parent.parent
-        if (parent_run / "config.yaml").exists():  # else a shipped policy, not a run: not counted here
-            before = wall_clock(parent_run, int(parent["timesteps"]))
-            if before is None:
-                return None
-            seconds += before
+    parent, parent_run = _started_from(run_dir)
+    if parent_run is not None:  # (a start from a shipped policy is not counted here)
+        before = wall_clock(parent_run, int(parent["timesteps"]))
+        if before is None:
+            return None
+        seconds += before
     return round(seconds + at[0], 1)
+
+
+def _started_from(run_dir: Path) -> tuple[dict[str, Any] | None, Path | None]:
+    """The run's --init-from record, and the run directory it names (None for a policy that is
+    not a run's checkpoint, e.g. a shipped one)."""
+    init = run_dir / "init_from.json"
+    if not init.exists():
+        return None, None
+    parent = json.loads(init.read_text())
+    parent_run = Path(parent["checkpoint"]).parent.parent
+    return parent, parent_run if (parent_run / "config.yaml").exists() else None
 
 
 def history(run_dir: Path) -> list[str]:
     """What was run, oldest first: the commands of this run and of the runs it started from."""
     config = yaml.safe_load((run_dir / "config.yaml").read_text())
     lines = []
-    init = run_dir / "init_from.json"
-    if init.exists():
-        parent = json.loads(init.read_text())
-        parent_run = Path(parent["checkpoint"]).parent.parent
-        if (parent_run / "config.yaml").exists():
-            lines += history(parent_run)
-            lines.append(f"then from its checkpoint at {parent['timesteps']:,} steps:")
-        else:
-            lines.append(f"started from the policy `{parent['checkpoint']}` (not a run directory here), then:")
+    parent, parent_run = _started_from(run_dir)
+    if parent_run is not None:
+        lines += history(parent_run)
+        lines.append(f"then from its checkpoint at {parent['timesteps']:,} steps:")
+    elif parent is not None:
+        lines.append(f"started from the policy `{parent['checkpoint']}` (not a run directory here), then:")
     bc = run_dir / "behaviour_cloning.json"
     if bc.exists():
         report = json.loads(bc.read_text())
