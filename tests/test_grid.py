@@ -58,3 +58,58 @@ def test_distance_at_is_the_full_fields_lookup_bit_for_bit() -> None:
         expected = field.lookup(float(x), float(y))
         got = costs.distance_at(rows, cols, float(x), float(y))
         assert got == expected or (math.isinf(got) and math.isinf(expected)), (x, y, got, expected)
+
+
+def _dijkstra_heapq(cost, knight_ok, seeds, res):  # noqa: ANN001, ANN202
+    """A plain reference: the same search with Python's heapq of (distance, r * cols + c) tuples."""
+    import heapq
+
+    from pico_gym.world.grid import _MOVES
+
+    rows, cols = cost.shape
+    free = np.isfinite(cost)
+    dist = np.full(cost.shape, np.inf)
+    heap = []
+    for r, c, v in seeds:
+        if free[r, c] and v < dist[r, c]:
+            dist[r, c] = v
+            heapq.heappush(heap, (v, r * cols + c))
+    while heap:
+        d, k = heapq.heappop(heap)
+        r, c = divmod(k, cols)
+        if d > dist[r, c]:
+            continue
+        for m, (dr, dc) in enumerate(_MOVES.tolist()):
+            rr, cc = r + dr, c + dc
+            if not (0 <= rr < rows and 0 <= cc < cols) or not free[rr, cc]:
+                continue
+            if m >= 8 and not (knight_ok[r, c] and knight_ok[rr, cc]):
+                continue
+            if 4 <= m < 8 and not (free[r + dr, c] and free[r, c + dc]):
+                continue
+            nd = d + math.sqrt(dr * dr + dc * dc) * res * 0.5 * (cost[r, c] + cost[rr, cc])
+            if nd < dist[rr, cc]:
+                dist[rr, cc] = nd
+                heapq.heappush(heap, (nd, rr * cols + cc))
+    return dist
+
+
+@pytest.mark.parametrize("heap_room", [None, 1, 5])
+def test_dijkstra_equals_a_heapq_search_bit_for_bit(heap_room: int | None) -> None:
+    """The compiled search's array heap settles every cell at exactly the distance Python's heapq
+    search gives (pop order is fixed by the unique (distance, cell) pairs), also when its heap
+    runs out of room and it starts over with more."""
+    from pico_gym.world.grid import CostGrid, _dijkstra
+
+    walls = np.array([[0, 0, 4, 0], [4, 0, 4, 3], [4, 3, 0, 3], [0, 3, 0, 0], [2, 0, 2, 2], [1, 1.5, 1, 3]], float)
+    grid = Grid.covering((0.0, 0.0, 4.0, 3.0), 0.1, margin=0.2)
+    costs = CostGrid.of(grid, walls, inflation_m=0.15)
+    seeds = [(5, 30, 0.0), (6, 30, 0.01), (5, 31, 0.0)]
+    rows, cols, values = (np.array(v) for v in zip(*seeds, strict=True))
+    got = _dijkstra(
+        costs.cost, costs.knight_ok, rows.astype(np.int64), cols.astype(np.int64), values.astype(float),
+        grid.resolution, heap_room=heap_room,
+    )  # fmt: skip
+    expected = _dijkstra_heapq(costs.cost, costs.knight_ok, seeds, grid.resolution)
+    assert np.isfinite(expected).sum() > 500  # the search reached round the inner walls
+    assert np.array_equal(got, expected)

@@ -10,7 +10,6 @@ in a corner starts in.
 
 from __future__ import annotations
 
-import heapq
 import math
 from dataclasses import dataclass
 
@@ -105,7 +104,6 @@ def clearance_grid(grid: Grid, segments: Segments, cap: float = 1.0) -> FloatArr
     )
 
 
-@njit
 def _dijkstra(
     cost: FloatArray,
     knight_ok: np.ndarray,
@@ -114,11 +112,39 @@ def _dijkstra(
     seeds_v: FloatArray,
     res: float,
     window: tuple[int, int, int, int] = (0, -1, 0, -1),
+    heap_room: int | None = None,
 ) -> FloatArray:
     """Dijkstra over the cells (16 moves: 4 straight, 4 diagonal, 8 knight).
 
     `window` (r0, r1, c0, c1), inclusive, non-empty: stop as soon as every free cell in it is
-    settled. Only those cells then hold their final distances (the rest may be unsettled)."""
+    settled. Only those cells then hold their final distances (the rest may be unsettled).
+
+    The heap has room for as many entries as there are cells (plus the seeds) unless `heap_room`
+    says otherwise; a search that needs more starts over with twice the room."""
+    room = cost.size + len(seeds_r) if heap_room is None else heap_room
+    while True:
+        dist, done = _dijkstra_run(cost, knight_ok, seeds_r, seeds_c, seeds_v, res, window, max(1, room))
+        if done:
+            return dist
+        room *= 2
+
+
+@njit
+def _dijkstra_run(
+    cost: FloatArray,
+    knight_ok: np.ndarray,
+    seeds_r: np.ndarray,
+    seeds_c: np.ndarray,
+    seeds_v: FloatArray,
+    res: float,
+    window: tuple[int, int, int, int],
+    room: int,
+) -> tuple[FloatArray, bool]:
+    """`_dijkstra` with a heap of `room` entries; False (and a partial result) when that is too few.
+
+    The heap holds (distance, r * cols + c) pairs in two arrays, ordered as those pairs. The pairs
+    are unique (a cell is pushed again only with a smaller distance), so the pop order, and with it
+    every settled distance, is that of any correct heap over them (Python's heapq included)."""
     rows, cols = cost.shape
     dist = np.full((rows, cols), np.inf)
     free = np.isfinite(cost)
@@ -135,23 +161,26 @@ def _dijkstra(
     for m in range(n_moves):
         dr, dc = _MOVES[m, 0], _MOVES[m, 1]
         half[m] = math.sqrt(dr * dr + dc * dc) * res * 0.5
-    # Heap entries (distance, r * cols + c): the same order as (distance, r, c), smaller tuples.
-    heap = [(0.0, 0)]
-    heap.pop()
+    keys = np.empty(room)
+    cells = np.empty(room, dtype=np.int64)
+    size = 0
     for i in range(seeds_r.shape[0]):
         r, c = seeds_r[i], seeds_c[i]
         if free[r, c] and seeds_v[i] < dist[r, c]:
+            if size == room:
+                return dist, False
             dist[r, c] = seeds_v[i]
-            heapq.heappush(heap, (seeds_v[i], r * cols + c))
-    while len(heap) > 0:
-        d, k = heapq.heappop(heap)
+            size = _heap_push(keys, cells, size, seeds_v[i], r * cols + c)
+    while size > 0:
+        d, k = keys[0], cells[0]
+        size = _heap_pop(keys, cells, size)
         r, c = k // cols, k % cols
         if d > dist[r, c]:
             continue
         if stop_early and wr0 <= r <= wr1 and wc0 <= c <= wc1:
             waiting -= 1
             if waiting == 0:
-                return dist
+                return dist, True
         cost_here = cost[r, c]
         knight_here = knight_ok[r, c]
         for m in range(n_moves):
@@ -167,9 +196,58 @@ def _dijkstra(
                 continue  # no diagonal squeeze between two blocked cells
             nd = d + half[m] * (cost_here + cost[rr, cc])
             if nd < dist[rr, cc]:
+                if size == room:
+                    return dist, False
                 dist[rr, cc] = nd
-                heapq.heappush(heap, (nd, rr * cols + cc))
-    return dist
+                size = _heap_push(keys, cells, size, nd, rr * cols + cc)
+    return dist, True
+
+
+@njit
+def _heap_push(keys: FloatArray, cells: np.ndarray, size: int, key: float, cell: int) -> int:
+    """Push (key, cell) onto the heap keys[:size], cells[:size] (with room for it); returns the new size."""
+    i = size
+    while i > 0:
+        parent = (i - 1) >> 1
+        pk = keys[parent]
+        if pk < key or (pk == key and cells[parent] < cell):
+            break
+        keys[i] = pk
+        cells[i] = cells[parent]
+        i = parent
+    keys[i] = key
+    cells[i] = cell
+    return size + 1
+
+
+@njit
+def _heap_pop(keys: FloatArray, cells: np.ndarray, size: int) -> int:
+    """Drop the smallest pair (index 0); returns the new size. The hole at the top moves down
+    along the smaller children to a leaf, and the last entry moves up from there (Floyd's order:
+    about half the comparisons of sifting it down from the top)."""
+    size -= 1
+    key, cell = keys[size], cells[size]
+    i = 0
+    child = 1
+    while child < size:
+        right = child + 1
+        if right < size and (keys[right] < keys[child] or (keys[right] == keys[child] and cells[right] < cells[child])):
+            child = right
+        keys[i] = keys[child]
+        cells[i] = cells[child]
+        i = child
+        child = 2 * i + 1
+    while i > 0:
+        parent = (i - 1) >> 1
+        pk = keys[parent]
+        if pk < key or (pk == key and cells[parent] < cell):
+            break
+        keys[i] = pk
+        cells[i] = cells[parent]
+        i = parent
+    keys[i] = key
+    cells[i] = cell
+    return size
 
 
 @dataclass(frozen=True)
