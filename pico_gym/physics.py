@@ -181,6 +181,11 @@ class Physics:
         self._speed_cap = robot.max_speed_mps * (1.0 + _CAP_TOLERANCE)
         self._turn_cap = robot.max_turn_rate_radps * (1.0 + _CAP_TOLERANCE)
         self.held = 0  # sub-steps undone because the true footprint would have touched something
+        # The free-space shortcut applies at all (then per step: no contact and enough room).
+        self._may_glide = (
+            config.free_space_shortcut and robot.max_accel_mps2 is None and robot.max_angular_accel_radps2 is None
+        )
+        self._glide_margin = 2.0 * config.contact_skin_m
         space = pymunk.Space()
         space.iterations = config.iterations
         space.collision_slop = config.collision_slop_m
@@ -339,11 +344,9 @@ class Physics:
         n = max(1, round(duration_s / h))
         robot = self.robot
         free = (
-            self.config.free_space_shortcut
-            and robot.max_accel_mps2 is None
-            and robot.max_angular_accel_radps2 is None
+            self._may_glide
             and self.contacts == 0
-            and clearance_m > self.sweep_m(vx, vy, w, duration_s) + 2.0 * self.config.contact_skin_m
+            and clearance_m > self.sweep_m(vx, vy, w, duration_s) + self._glide_margin
         )
         if free:
             if self._mover_bodies:

@@ -129,9 +129,10 @@ def clip_twist(action: np.ndarray, config: RobotConfig) -> tuple[float, float, f
         if a.size != 3:
             raise ValueError(f"action must have 3 components (vx, vy, w), got shape {np.shape(action)}")
         vx, vy, w = a.ravel().tolist()
-    for name, value in zip(ACTION_NAMES, (vx, vy, w), strict=True):
-        if not math.isfinite(value):
-            raise ValueError(f"action component {name} is {value}; actions must be finite")
+    if not math.isfinite(vx + vy + w):  # a NaN or an infinity in any component (inf - inf is NaN)
+        for name, value in zip(ACTION_NAMES, (vx, vy, w), strict=True):
+            if not math.isfinite(value):
+                raise ValueError(f"action component {name} is {value}; actions must be finite")
     vmax = config.max_speed_mps
     vx = min(vmax, max(-vmax, vx))
     vy = min(vmax, max(-vmax, vy))

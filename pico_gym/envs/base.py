@@ -189,6 +189,8 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         # The odometry frame in the map: where the robot started, minus where odometry says it is.
         self._map_from_odom = compose(ep.start, inverse(odom0))
         self._odom_from_map = inverse(self._map_from_odom)
+        self._odom_from_map_cs = (math.cos(self._odom_from_map.theta), math.sin(self._odom_from_map.theta))
+        self._bumps_by_kind: tuple[tuple[int, int], dict[str, int]] | None = None  # (counts it was built at, dict)
         self._pose = ep.start
         self.steps = 0
         self.sim_time_s = 0.0
@@ -340,11 +342,15 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         assert reason is None or reason in self.task.termination_reasons
         pose = self._pose
         physics = self.physics
+        counts = (physics.bumps, self._n_excused)
+        if self._bumps_by_kind is None or self._bumps_by_kind[0] != counts:  # counted anew only when a count changed
+            by_kind = {k: n - e for k, n, e in zip(KINDS, physics.bumps_by_kind, self._excused, strict=True)}
+            self._bumps_by_kind = (counts, by_kind)
         info = {
             "pose": np.array(pose),
             "odom_error": self.odometry_error(),
             "bumps": physics.bumps - self._n_excused,
-            "bumps_by_kind": {k: n - e for k, n, e in zip(KINDS, physics.bumps_by_kind, self._excused, strict=True)},
+            "bumps_by_kind": self._bumps_by_kind[1].copy(),  # a new dict per step, as gymnasium asks
             "clearance": self._clearance,
             "min_clearance": self._min_clearance,
             "sim_time": self.sim_time_s,
@@ -360,9 +366,14 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
 
     def odometry_error(self) -> np.ndarray:
         """Odometry minus the truth, in the odometry frame: (dx, dy, dtheta)."""
-        truth = compose(self._odom_from_map, self._pose)
+        # compose(self._odom_from_map, self._pose), unrolled with the episode's cos and sin
+        a, b = self._odom_from_map, self._pose
+        c, s = self._odom_from_map_cs
+        truth_x = a.x + c * b.x - s * b.y
+        truth_y = a.y + s * b.x + c * b.y
+        truth_theta = float(wrap_angle(a.theta + b.theta))
         odom = self.odometry.pose
-        return np.array([odom.x - truth.x, odom.y - truth.y, wrap_angle(odom.theta - truth.theta)])
+        return np.array([odom.x - truth_x, odom.y - truth_y, wrap_angle(odom.theta - truth_theta)])
 
     @property
     def pose(self) -> Pose:
