@@ -112,3 +112,21 @@ def test_config_validation() -> None:
         LrfConfig(n_beams=0)
     with pytest.raises(ValueError, match="no_hit"):
         LrfConfig(no_hit="nan")
+
+
+def test_lrf_ranges_follows_the_beams_it_is_given_not_the_last_ones() -> None:
+    """The beams' cos and sin are kept between calls; a call with other beams, or with the same
+    array changed in place, gets its own beams."""
+    room = square_segments(2.0)
+    pose = Pose(0.3, -0.2, 0.7)
+    angles = LrfConfig().beam_angles
+    first = lrf_ranges(pose, room, angles)
+    assert first == pytest.approx(brute_force(pose, room, angles, 10.0), abs=1e-9)
+    other = np.linspace(-1.0, 1.0, 7)
+    assert lrf_ranges(pose, room, other) == pytest.approx(brute_force(pose, room, other, 10.0), abs=1e-9)
+    angles = angles.copy()
+    lrf_ranges(pose, room, angles)
+    angles[:] = np.linspace(-0.5, 0.5, angles.size)  # in place: the same array object, new content
+    assert lrf_ranges(pose, room, angles) == pytest.approx(brute_force(pose, room, angles, 10.0), abs=1e-9)
+    with pytest.raises(ValueError, match=r"\(N, 4\)"):
+        lrf_ranges(pose, np.zeros(6), angles)

@@ -367,6 +367,32 @@ class _Recent:
 
 
 _BEAMS = _Recent(4)  # beam angles -> (cos, sin), checked ascending once
+_NO_ANGLES = np.zeros(0)
+
+
+@njit
+def _cast_known_beams(
+    x: float,
+    y: float,
+    theta: float,
+    segments: Segments,
+    beam_angles: FloatArray,
+    known: FloatArray,
+    beam_cos: FloatArray,
+    beam_sin: FloatArray,
+    max_range: float,
+    out: FloatArray,
+    one_sided: np.ndarray,
+) -> bool:
+    """`lrf_ranges`' small-scene cast in one call when `beam_angles` equal `known` (whose cos and
+    sin are given); False, without casting, when they differ."""
+    if not _equal(beam_angles, known):
+        return False
+    _cast(x, y, theta, segments, beam_angles, beam_cos, beam_sin, max_range, out, True, one_sided)
+    _no_hit_to_inf(out, max_range)
+    return True
+
+
 _GRIDS = _Recent(4)  # (segments, one-sided flags) -> SegmentGrid
 
 
@@ -410,21 +436,33 @@ def lrf_ranges(
     >>> lrf_ranges(Pose(0.0, 0.0, 0.0), square, np.array([0.0, math.pi / 4])).round(6).tolist()
     [1.0, 1.414214]
     """
-    if not (isinstance(beam_angles, np.ndarray) and beam_angles.dtype == np.float64 and beam_angles.ndim == 1):
+    if not (type(beam_angles) is np.ndarray and beam_angles.dtype.char == "d" and beam_angles.ndim == 1):
         beam_angles = np.ascontiguousarray(beam_angles, dtype=np.float64).reshape(-1)
-    cos, sin = _beams(beam_angles)
     out = np.empty(beam_angles.shape[0])
     x, y, th = float(pose[0]), float(pose[1]), float(pose[2])
     if not isinstance(segments, SegmentGrid):
-        if not (isinstance(segments, np.ndarray) and segments.dtype == np.float64 and segments.flags.c_contiguous):
+        if not (
+            type(segments) is np.ndarray
+            and segments.dtype.char == "d"
+            and segments.ndim == 2
+            and segments.shape[1] == 4
+            and segments.flags.c_contiguous
+        ):
             segments = np.ascontiguousarray(segments, dtype=np.float64)
-        segments = segments.reshape(-1, 4)
+            if segments.size % 4:
+                raise ValueError(f"segments must be (N, 4) rows (x1, y1, x2, y2), got shape {segments.shape}")
+            segments = segments.reshape(-1, 4)
         flags = _NO_FLAGS if one_sided is None else np.ascontiguousarray(one_sided, dtype=np.bool_)
         if len(segments) < GRID_MIN_SEGMENTS:
-            _cast(x, y, th, segments, beam_angles, cos, sin, float(max_range), out, True, flags)
-            _no_hit_to_inf(out, float(max_range))
+            # The beams are those of the last call (checked in the kernel): one compiled call.
+            (known,), (cos, sin) = _BEAMS.entries[0] if _BEAMS.entries else ((_NO_ANGLES,), (_NO_ANGLES, _NO_ANGLES))
+            if not _cast_known_beams(x, y, th, segments, beam_angles, known, cos, sin, float(max_range), out, flags):
+                cos, sin = _beams(beam_angles)
+                _cast(x, y, th, segments, beam_angles, cos, sin, float(max_range), out, True, flags)
+                _no_hit_to_inf(out, float(max_range))
             return out
         segments = _GRIDS.get((segments, flags), lambda: SegmentGrid(segments, flags))
+    cos, sin = _beams(beam_angles)
     segments.cast(x, y, th, cos, sin, float(max_range), out)
     return out
 
