@@ -13,7 +13,7 @@ import math
 import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, NamedTuple
 
 import gymnasium as gym
 import numpy as np
@@ -38,6 +38,17 @@ CLEARANCE_CAP_M = 2.0
 # info["cost"] (Safety Gym's convention): 1 per bump plus 1 per second closer than this to anything [m].
 COST_CLEARANCE_M = 0.1
 _NO_EXTRAS = np.zeros(0)
+
+
+class _Moved(NamedTuple):
+    """What `PicoEnv._act` hands `PicoEnv._judge`: the step's motion before the scan."""
+
+    previous: Pose  # the true pose before the step
+    twist: tuple[float, float, float]  # the true twist the ground gave
+    new_bumps: int  # contacts that began (before the task excuses any)
+    idle_s: float
+    previous_clearance: float
+    extras: np.ndarray  # the action's components after the twist
 
 
 @dataclass(frozen=True)
@@ -213,6 +224,14 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
 
     def step(self, action: np.ndarray) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
         """Advance one control period with the body-frame twist `action` = (vx, vy, w[, extras])."""
+        moved = self._act(action)
+        self._sense(self.lrf.scan(self._pose, self._seen, self.np_random, self._movers, self._one_sided))
+        return self._judge(moved)
+
+    # The step in three parts, so that a vector env can scan many robots in one call between them:
+    # _act (action, physics, odometry, clearance), the scan (`_sense` takes it), _judge (the task's
+    # verdict, observation, info).
+    def _act(self, action: np.ndarray) -> _Moved:
         if self.episode is None:
             raise RuntimeError("call reset() before step()")
         if self._finished:
@@ -239,28 +258,37 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         previous_clearance = self._clearance
         self._clearance = self._footprint_clearance(pose)
         self._min_clearance = min(self._min_clearance, self._clearance)
-        new_bumps = physics.bumps - bumps_before
+        self.trajectory.append(pose)
+        twist_true = (true_vx, true_vy, true_w)
+        return _Moved(previous, twist_true, physics.bumps - bumps_before, idle_s, previous_clearance, extras)
+
+    def _sense(self, scan: np.ndarray) -> None:
+        """Take the step's scan (from the pose `_act` left)."""
+        self.last_scan = scan
+        if self._on_scan is not None:
+            self._on_scan(self._pose, scan)
+
+    def _judge(self, moved: _Moved) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
+        physics = self.physics
+        pose = self._pose
+        dt = self.config.dt_s
+        new_bumps = moved.new_bumps
         kinds: tuple[str, ...] = ()
         if new_bumps:
             kinds = tuple(physics.bump_log[-new_bumps:])
-        self.trajectory.append(pose)
-        self.last_scan = self.lrf.scan(pose, self._seen, self.np_random, self._movers, self._one_sided)
-        if self._on_scan is not None:
-            self._on_scan(pose, self.last_scan)
-
         ctx = StepContext(
-            previous,
+            moved.previous,
             pose,
-            (true_vx, true_vy, true_w),
+            moved.twist,
             new_bumps,
             kinds,
             physics.bumps - self._n_excused,
-            idle_s,
+            moved.idle_s,
             dt,
             self.sim_time_s,
             self._clearance,
-            previous_clearance,
-            extras,
+            moved.previous_clearance,
+            moved.extras,
         )
         outcome = self.task.evaluate(ctx)
         if outcome.excused_bumps:

@@ -1,0 +1,330 @@
+"""N robots in one process: pico-gym's vector env (`gymnasium.make_vec(..., vectorization_mode="vector_entry_point")`).
+
+`PicoVectorEnv` holds N pico-gym envs and steps them together: each robot's action, physics and
+odometry (`PicoEnv._act`), then the scans of every robot whose scene is a plain segment array in
+one compiled call (cast and noise; robots on large maps or with movers scan on their own), then
+each task's verdict (`PicoEnv._judge`). Infos are batched per key as gymnasium's `SyncVectorEnv`
+batches them (a value array and a `_key` mask per key, nested dicts alike), built once per step
+rather than env by env.
+
+Same seeds, same episodes: sub-env i is an ordinary env seeded as `SyncVectorEnv` seeds it
+(`seed + i`), every random draw still comes from its own `np_random`, and the scan of a robot is
+the one its own env would compute, so observations, rewards, terminations and infos equal those of
+`gymnasium.make_vec(..., vectorization_mode="sync")` bit for bit (tested). Autoreset follows
+gymnasium's modes: NEXT_STEP (the default, as `SyncVectorEnv`) or SAME_STEP (the final observation
+and info in `info["final_obs"]`, `info["final_info"]`; what Stable-Baselines3's `VecEnv` expects).
+"""
+
+from __future__ import annotations
+
+from functools import partial
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from pico_gym.jit import njit
+from pico_gym.sensors.lrf import _cast, _noisy
+from pico_gym.types import FloatArray, Segments
+
+
+@njit
+def _scan_batch(
+    rows: np.ndarray,
+    poses: FloatArray,
+    segments: Segments,
+    bounds: np.ndarray,
+    flags: np.ndarray,
+    beam_angles: FloatArray,
+    beam_cos: FloatArray,
+    beam_sin: FloatArray,
+    units: FloatArray,
+    reading: tuple[float, float, float, float],
+    exact: FloatArray,
+    out: np.ndarray,
+) -> None:
+    """The scans of robots rows[j] at poses[j] into out[rows[j]]: each robot's own segments are
+    segments[bounds[i, 0]:bounds[i, 1]] with back-face flags flags[bounds[i, 2]:bounds[i, 3]]
+    (empty: none), as `Lrf.scan` casts and adds noise for one."""
+    noise, rmin, rmax, no_hit = reading
+    for j in range(rows.shape[0]):
+        i = rows[j]
+        _cast(
+            poses[j, 0],
+            poses[j, 1],
+            poses[j, 2],
+            segments[bounds[i, 0] : bounds[i, 1]],
+            beam_angles,
+            beam_cos,
+            beam_sin,
+            rmax,
+            exact,
+            True,
+            flags[bounds[i, 2] : bounds[i, 3]],
+        )
+        _noisy(exact, units[i], noise, rmin, rmax, no_hit, out[i])
+
+
+class PicoVectorEnv(VectorEnv):
+    """`num_envs` copies of a pico-gym env stepped together in one process.
+
+    Args:
+        env_id: a pico-gym env id ("PicoEscape-v0", "PicoHospital-v0", "PicoExplore-v0").
+        num_envs: how many robots.
+        autoreset_mode: gymnasium's `AutoresetMode` (or its value): NEXT_STEP or SAME_STEP.
+        **kwargs: the options every sub-env is made with (as `gymnasium.make(env_id, **kwargs)`).
+    """
+
+    def __init__(
+        self,
+        env_id: str,
+        num_envs: int,
+        autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
+        **kwargs: Any,
+    ) -> None:
+        if isinstance(num_envs, bool) or not isinstance(num_envs, int) or num_envs < 1:
+            raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
+        try:
+            mode = AutoresetMode(autoreset_mode)
+        except ValueError:
+            raise ValueError(f"autoreset_mode must be 'NextStep' or 'SameStep', got {autoreset_mode!r}") from None
+        if mode not in (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP):
+            raise ValueError(f"autoreset_mode must be 'NextStep' or 'SameStep', got {autoreset_mode!r}")
+        kwargs.pop("max_episode_steps", None)  # gymnasium passes the spec's (None: pico-gym envs time out themselves)
+        self.envs = [gym.make(env_id, **kwargs).unwrapped for _ in range(num_envs)]
+        first = self.envs[0]
+        self.num_envs = num_envs
+        self.single_observation_space = first.observation_space
+        self.single_action_space = first.action_space
+        self.observation_space = batch_space(self.single_observation_space, num_envs)
+        self.action_space = batch_space(self.single_action_space, num_envs)
+        self.render_mode = first.render_mode
+        self.metadata = dict(first.metadata, autoreset_mode=mode)
+        self.autoreset_mode = mode
+        self._autoreset = np.zeros(num_envs, dtype=np.bool_)
+        lrf = first.lrf
+        self._lrf = lrf
+        self._units = np.empty((num_envs, lrf.config.n_beams))
+        if not lrf._draws_noise:
+            self._units.fill(0.5)
+        self._exact = np.empty(lrf.config.n_beams)
+        self._scenes: list[Any] = [None] * num_envs  # the static segments the batch arrays were built from
+        self._bounds = np.zeros((num_envs, 4), dtype=np.int64)
+        self._segments = np.zeros((0, 4))
+        self._flags = np.zeros(0, dtype=np.bool_)
+        self._batchable = [False] * num_envs  # scanned in the batch call (a plain segment array, no movers)
+
+    # --- the batch's scene arrays ----------------------------------------------------------
+    def _refresh_scenes(self) -> None:
+        """Rebuild the joined segment arrays when a robot's static scene changed (a reset, or a
+        task's new scene)."""
+        seen = [env._seen for env in self.envs]
+        if all(a is b for a, b in zip(seen, self._scenes, strict=True)):
+            return
+        self._scenes = seen
+        segments, flags = [], []
+        n_seg = n_flag = 0
+        for i, env in enumerate(self.envs):
+            static = env._seen
+            ok = isinstance(static, np.ndarray) and env._movers is None
+            self._batchable[i] = ok
+            if not ok:
+                self._bounds[i] = (n_seg, n_seg, n_flag, n_flag)
+                continue
+            one_sided = env._one_sided
+            k = 0 if one_sided is None else len(one_sided)
+            self._bounds[i] = (n_seg, n_seg + len(static), n_flag, n_flag + k)
+            segments.append(static)
+            if k:
+                flags.append(one_sided)
+            n_seg += len(static)
+            n_flag += k
+        self._segments = np.ascontiguousarray(np.concatenate(segments)) if segments else np.zeros((0, 4))
+        self._flags = np.ascontiguousarray(np.concatenate(flags), dtype=np.bool_) if flags else np.zeros(0, np.bool_)
+
+    def _scan(self, stepped: list[int], out: np.ndarray) -> None:
+        """The scans of the robots just stepped, into their rows of `out` (and into each env)."""
+        self._refresh_scenes()
+        envs, batchable = self.envs, self._batchable
+        batch = [i for i in stepped if batchable[i]]
+        lrf = self._lrf
+        if batch:
+            if lrf._draws_noise:
+                units = self._units
+                for i in batch:
+                    envs[i].np_random.random(out=units[i])  # the draws its own scan would take
+            _scan_batch(
+                np.array(batch, dtype=np.int64), np.array([envs[i]._pose for i in batch]), self._segments,
+                self._bounds, self._flags, lrf.beam_angles, lrf._cos, lrf._sin, self._units, lrf._reading,
+                self._exact, out,
+            )  # fmt: skip
+        for i in stepped:
+            env = envs[i]
+            if not batchable[i]:
+                out[i] = env.lrf.scan(env._pose, env._seen, env.np_random, env._movers, env._one_sided)
+            env._sense(out[i])
+
+    # --- the VectorEnv interface -----------------------------------------------------------
+    def reset(
+        self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        """Reset the robots (all, or those of `options["reset_mask"]`); seeds as `SyncVectorEnv`."""
+        n = self.num_envs
+        if seed is None:
+            seeds: list[int | None] = [None] * n
+        elif isinstance(seed, int):
+            seeds = [seed + i for i in range(n)]
+        else:
+            seeds = list(seed)
+            if len(seeds) != n:
+                raise ValueError(f"seed: a list of {n} seeds (one per env) is needed, got {len(seeds)}")
+        options = dict(options or {})
+        mask = options.pop("reset_mask", None)
+        if mask is not None:
+            if not (isinstance(mask, np.ndarray) and mask.dtype == np.bool_ and mask.shape == (n,)):
+                raise ValueError(f"options['reset_mask'] must be a bool array of shape ({n},), got {mask!r}")
+            if not mask.any():
+                raise ValueError("options['reset_mask'] must reset at least one env")
+        which = range(n) if mask is None else np.flatnonzero(mask).tolist()
+        infos: list[dict[str, Any] | None] = [None] * n
+        for i in which:
+            _, infos[i] = self.envs[i].reset(seed=seeds[i], options=options or None)
+            self._autoreset[i] = False
+        return self._observations(), self._batch_infos(infos)
+
+    def step(
+        self, actions: np.ndarray
+    ) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        """Step every robot with its row of `actions` (an (num_envs, action size) array)."""
+        actions = np.asarray(actions)
+        n = self.num_envs
+        if actions.shape[:1] != (n,):
+            raise ValueError(f"actions must have one row per env: shape ({n}, ...), got {actions.shape}")
+        rewards = np.zeros(n)
+        terminated = np.zeros(n, dtype=np.bool_)
+        truncated = np.zeros(n, dtype=np.bool_)
+        infos: list[dict[str, Any] | None] = [None] * n
+        scans = np.empty((n, self._lrf.config.n_beams), dtype=np.float32)
+        stepped, moves = [], []
+        next_step = self.autoreset_mode == AutoresetMode.NEXT_STEP
+        for i, env in enumerate(self.envs):
+            if next_step and self._autoreset[i]:
+                obs, infos[i] = env.reset()
+                scans[i] = obs["lrf"]
+                self._autoreset[i] = False
+                continue
+            stepped.append(i)
+            moves.append(env._act(actions[i]))
+        self._scan(stepped, scans)
+        final_obs: list[Any] = [None] * n
+        final_info: list[dict[str, Any] | None] = [None] * n
+        for i, moved in zip(stepped, moves, strict=True):
+            env = self.envs[i]
+            obs, rewards[i], terminated[i], truncated[i], infos[i] = env._judge(moved)
+            if terminated[i] or truncated[i]:
+                if next_step:
+                    self._autoreset[i] = True
+                else:
+                    # (its scan is a row of the batch, which the reset's scan overwrites)
+                    final_obs[i], final_info[i] = {**obs, "lrf": obs["lrf"].copy()}, infos[i]
+                    obs, infos[i] = env.reset()
+                    scans[i] = obs["lrf"]
+        batched = self._batch_infos(infos)
+        if not next_step and any(info is not None for info in final_info):
+            done = [i for i in range(n) if final_info[i] is not None]
+            objects = np.full(n, None, dtype=object)
+            for i in done:
+                objects[i] = final_obs[i]
+            mask = np.zeros(n, dtype=np.bool_)
+            mask[done] = True
+            batched["final_obs"], batched["_final_obs"] = objects, mask
+            batched["final_info"], batched["_final_info"] = self._batch_infos(final_info), mask.copy()
+        return {"lrf": scans, "odom": self._odometry()}, rewards, terminated, truncated, batched
+
+    def _observations(self) -> dict[str, np.ndarray]:
+        return {"lrf": np.stack([env.last_scan for env in self.envs]), "odom": self._odometry()}
+
+    def _odometry(self) -> np.ndarray:
+        return np.array([env.odometry.pose for env in self.envs], dtype=np.float32)
+
+    def _batch_infos(self, infos: list[dict[str, Any] | None]) -> dict[str, Any]:
+        """Per key, one array over the envs and a `_key` mask of the envs that have it: what
+        `VectorEnv._add_info` builds env by env, built key by key. Arrays whose shape differs
+        between envs (the hospital's `movers`, one row per person) go in an object array, where
+        `_add_info` fails."""
+        n = self.num_envs
+        first_info = infos[0]
+        if first_info is not None and all(info is not None and info.keys() == first_info.keys() for info in infos):
+            return self._batch_alike(infos)  # type: ignore[arg-type]
+        keys: dict[str, None] = {}
+        for info in infos:
+            if info:
+                keys.update(dict.fromkeys(info))
+        out: dict[str, Any] = {}
+        for key in keys:
+            present = [i for i, info in enumerate(infos) if info is not None and key in info]
+            values = [infos[i][key] for i in present]  # type: ignore[index]
+            first = values[0]
+            if isinstance(first, dict):
+                nested: list[dict[str, Any] | None] = [None] * n
+                for i, value in zip(present, values, strict=True):
+                    nested[i] = value
+                array: Any = self._batch_infos(nested)
+            else:
+                if type(first) in (int, float, bool) or isinstance(first, np.number):
+                    array = np.zeros(n, dtype=type(first))
+                elif isinstance(first, np.ndarray) and all(
+                    isinstance(v, np.ndarray) and v.shape == first.shape for v in values
+                ):
+                    array = np.zeros((n, *first.shape), dtype=first.dtype)
+                else:
+                    array = np.full(n, None, dtype=object)
+                if array.ndim == 1 and array.dtype != object:
+                    array[present] = values  # scalars: one assignment
+                else:
+                    for i, value in zip(present, values, strict=True):
+                        array[i] = value  # as gymnasium assigns (broadcasting included)
+            mask = np.zeros(n, dtype=np.bool_)
+            mask[present] = True
+            out[key], out[f"_{key}"] = array, mask
+        return out
+
+    def _batch_alike(self, infos: list[dict[str, Any]]) -> dict[str, Any]:
+        """`_batch_infos` when every env has the same keys (the common step): no masks to work out."""
+        n = self.num_envs
+        everyone = np.ones(n, dtype=np.bool_)
+        out: dict[str, Any] = {}
+        for key, first in infos[0].items():
+            values = [info[key] for info in infos]
+            if isinstance(first, dict):
+                array: Any = self._batch_infos(values)
+            elif type(first) in (int, float, bool) or isinstance(first, np.number):
+                array = np.array(values, dtype=type(first))
+            elif isinstance(first, np.ndarray) and all(
+                isinstance(v, np.ndarray) and v.shape == first.shape for v in values
+            ):
+                array = np.empty((n, *first.shape), dtype=first.dtype)
+                array[:] = values
+            else:
+                array = np.empty(n, dtype=object)
+                for i, value in enumerate(values):
+                    array[i] = value
+            out[key], out[f"_{key}"] = array, everyone.copy()
+        return out
+
+    def render(self) -> tuple[Any, ...] | None:
+        """Each robot's frame (as `SyncVectorEnv.render`)."""
+        return tuple(env.render() for env in self.envs)
+
+    def close_extras(self, **kwargs: Any) -> None:
+        for env in self.envs:
+            env.close()
+
+
+# The creators `gymnasium.make_vec` calls (registered by name, so that specs pickle):
+# creator(num_envs=..., **options).
+escape_vector_env = partial(PicoVectorEnv, "PicoEscape-v0")
+hospital_vector_env = partial(PicoVectorEnv, "PicoHospital-v0")
+explore_vector_env = partial(PicoVectorEnv, "PicoExplore-v0")

@@ -1,0 +1,116 @@
+"""The vector env (`make_vec(..., vectorization_mode="vector_entry_point")`): the same episodes as
+gymnasium's SyncVectorEnv over single envs, bit for bit, in both autoreset modes."""
+
+from __future__ import annotations
+
+import sys
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.vector import AutoresetMode
+
+import pico_gym  # noqa: F401
+
+
+def assert_same(a: Any, b: Any, where: str = "") -> None:
+    """Equal batches: arrays bit for bit (dtype and shape too), dicts key by key, objects by repr."""
+    if isinstance(a, tuple):
+        assert isinstance(b, tuple) and len(a) == len(b), where
+        for k, (x, y) in enumerate(zip(a, b, strict=True)):
+            assert_same(x, y, f"{where}[{k}]")
+    elif isinstance(a, dict):
+        assert isinstance(b, dict) and a.keys() == b.keys(), (where, sorted(set(a) ^ set(b)))
+        for key in a:
+            assert_same(a[key], b[key], f"{where}/{key}")
+    elif isinstance(a, np.ndarray):
+        assert isinstance(b, np.ndarray) and (a.shape, a.dtype) == (b.shape, b.dtype), (where, a.dtype, b.dtype)
+        if a.dtype == object:
+            for x, y in zip(a, b, strict=True):
+                assert_same(x, y, f"{where}[]")
+        else:
+            assert np.array_equal(a, b, equal_nan=True), where
+    elif isinstance(a, (int, float, bool, str, type(None), np.number)):
+        assert a == b, (where, a, b)
+    else:
+        with np.printoptions(threshold=sys.maxsize):
+            assert repr(a) == repr(b), where
+
+
+CASES = [
+    # (env id, options, autoreset mode): short time limits and bumps end many episodes.
+    ("PicoEscape-v0", {"time_limit_s": 4.0}, AutoresetMode.NEXT_STEP),
+    ("PicoEscape-v0", {"n_obstacles": 2, "slip_std": 0.05, "noise_m": 0.0, "time_limit_s": 6.0},
+     AutoresetMode.SAME_STEP),
+    ("PicoHospital-v0", {"map": "hospital_2019", "n_movers": (1, 1), "n_boxes": (2, 2), "closed_doors": (1, 1),
+                         "time_limit_s": 5.0}, AutoresetMode.SAME_STEP),
+    ("PicoHospital-v0", {"map": "hospital_2021", "time_limit_s": 3.0}, AutoresetMode.NEXT_STEP),
+    ("PicoExplore-v0", {"time_limit_s": 4.0}, AutoresetMode.NEXT_STEP),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize(("env_id", "options", "mode"), CASES)
+def test_vector_env_gives_the_episodes_of_single_envs(env_id: str, options: dict, mode: AutoresetMode) -> None:
+    n = 3
+    reference = gym.make_vec(
+        env_id, num_envs=n, vectorization_mode="sync", vector_kwargs={"autoreset_mode": mode}, **options
+    )
+    vector = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point", autoreset_mode=mode, **options)
+    assert type(vector.unwrapped).__name__ == "PicoVectorEnv"
+    assert vector.metadata["autoreset_mode"] == mode
+    assert_same(reference.reset(seed=11), vector.reset(seed=11))
+    rng = np.random.default_rng(0)
+    ends = 0
+    for t in range(120):
+        actions = rng.uniform(reference.action_space.low, reference.action_space.high).astype(np.float32)
+        expected, got = reference.step(actions), vector.step(actions)
+        assert_same(expected, got, f"step {t}")
+        ends += int(np.sum(expected[2] | expected[3]))
+    assert ends >= n  # every robot went through an autoreset at least once (in sum)
+    # A partial reset, as SyncVectorEnv takes it.
+    mask = np.array([False, True, False])
+    assert_same(
+        reference.reset(seed=[None, 5, None], options={"reset_mask": mask.copy()}),
+        vector.reset(seed=[None, 5, None], options={"reset_mask": mask.copy()}),
+    )
+    reference.close()
+    vector.close()
+
+
+def test_vector_env_batches_infos_whose_arrays_differ_in_shape() -> None:
+    """Generated hospitals draw how many people walk: info["movers"] has a row per person, so its
+    shape differs between robots (SyncVectorEnv cannot batch that): an object array, robot by robot."""
+    vector = gym.make_vec("PicoHospital-v0", num_envs=3, vectorization_mode="vector_entry_point", n_movers=(0, 2))
+    for seed in range(20):
+        _, info = vector.reset(seed=seed)
+        counts = {len(m) for m in info["movers"]} if info["movers"].dtype == object else set()
+        if len(counts) > 1:
+            break
+    assert len(counts) > 1, "no seed in 0-19 gave robots different numbers of people"
+    for _ in range(3):
+        _, _, _, _, info = vector.step(np.zeros((3, 3), dtype=np.float32))
+        assert info["movers"].dtype == object and info["_movers"].all()
+        for env, movers in zip(vector.unwrapped.envs, info["movers"], strict=True):
+            assert np.array_equal(movers, env.scene.mover_poses())
+    vector.close()
+
+
+def test_vector_env_refuses_bad_input() -> None:
+    with pytest.raises(ValueError, match="num_envs"):
+        gym.make_vec("PicoEscape-v0", num_envs=0, vectorization_mode="vector_entry_point")
+    with pytest.raises(ValueError, match="autoreset_mode"):
+        gym.make_vec("PicoEscape-v0", num_envs=2, vectorization_mode="vector_entry_point", autoreset_mode="Disabled")
+    with pytest.raises(TypeError, match="unknown option"):
+        gym.make_vec("PicoEscape-v0", num_envs=2, vectorization_mode="vector_entry_point", no_such_option=1)
+    vector = gym.make_vec("PicoEscape-v0", num_envs=2, vectorization_mode="vector_entry_point")
+    vector.reset(seed=0)
+    with pytest.raises(ValueError, match="one row per env"):
+        vector.step(np.zeros((3, 3), dtype=np.float32))
+    with pytest.raises(ValueError, match="action component vy"):
+        vector.step(np.array([[0.0, 0.0, 0.0], [0.0, np.nan, 0.0]], dtype=np.float32))
+    with pytest.raises(ValueError, match="2 seeds"):
+        vector.reset(seed=[1, 2, 3])
+    with pytest.raises(ValueError, match="reset_mask"):
+        vector.reset(options={"reset_mask": np.array([1, 0])})
+    vector.close()
