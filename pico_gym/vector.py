@@ -171,6 +171,13 @@ class PicoVectorEnv(VectorEnv):
         self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         """Reset the robots (all, or those of `options["reset_mask"]`); seeds as `SyncVectorEnv`."""
+        obs, infos = self.reset_each(seed=seed, options=options)
+        return obs, self._batch_infos(infos)
+
+    def reset_each(
+        self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, np.ndarray], list[dict[str, Any] | None]]:
+        """`reset` with each robot's info as its own dict (None for a robot the mask left alone)."""
         n = self.num_envs
         if seed is None:
             seeds: list[int | None] = [None] * n
@@ -192,12 +199,39 @@ class PicoVectorEnv(VectorEnv):
         for i in which:
             _, infos[i] = self.envs[i].reset(seed=seeds[i], options=options or None)
             self._autoreset[i] = False
-        return self._observations(), self._batch_infos(infos)
+        return self._observations(), infos
 
     def step(
         self, actions: np.ndarray
     ) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """Step every robot with its row of `actions` (an (num_envs, action size) array)."""
+        obs, rewards, terminated, truncated, infos, final = self.step_each(actions)
+        batched = self._batch_infos(infos)
+        if final:
+            n = self.num_envs
+            objects = np.full(n, None, dtype=object)
+            final_infos: list[dict[str, Any] | None] = [None] * n
+            for i, (final_obs, final_info) in final.items():
+                objects[i], final_infos[i] = final_obs, final_info
+            mask = np.zeros(n, dtype=np.bool_)
+            mask[list(final)] = True
+            batched["final_obs"], batched["_final_obs"] = objects, mask
+            batched["final_info"], batched["_final_info"] = self._batch_infos(final_infos), mask.copy()
+        return obs, rewards, terminated, truncated, batched
+
+    def step_each(
+        self, actions: np.ndarray
+    ) -> tuple[
+        dict[str, np.ndarray],
+        np.ndarray,
+        np.ndarray,
+        np.ndarray,
+        list[dict[str, Any]],
+        dict[int, tuple[dict[str, np.ndarray], dict[str, Any]]],
+    ]:
+        """`step` with each robot's info as its own dict (what Stable-Baselines3's VecEnv hands
+        on), and, in SAME_STEP mode, {robot: (final observation, final info)} of the episodes
+        that ended (the batch holds the next episode's first observation)."""
         actions = np.asarray(actions)
         n = self.num_envs
         if actions.shape[:1] != (n,):
@@ -205,7 +239,7 @@ class PicoVectorEnv(VectorEnv):
         rewards = np.zeros(n)
         terminated = np.zeros(n, dtype=np.bool_)
         truncated = np.zeros(n, dtype=np.bool_)
-        infos: list[dict[str, Any] | None] = [None] * n
+        infos: list[Any] = [None] * n
         scans = np.empty((n, self._lrf.config.n_beams), dtype=np.float32)
         stepped, moves = [], []
         next_step = self.autoreset_mode == AutoresetMode.NEXT_STEP
@@ -218,8 +252,7 @@ class PicoVectorEnv(VectorEnv):
             stepped.append(i)
             moves.append(env._act(actions[i]))
         self._scan(stepped, scans)
-        final_obs: list[Any] = [None] * n
-        final_info: list[dict[str, Any] | None] = [None] * n
+        final: dict[int, tuple[dict[str, np.ndarray], dict[str, Any]]] = {}
         for i, moved in zip(stepped, moves, strict=True):
             env = self.envs[i]
             obs, rewards[i], terminated[i], truncated[i], infos[i] = env._judge(moved)
@@ -228,20 +261,10 @@ class PicoVectorEnv(VectorEnv):
                     self._autoreset[i] = True
                 else:
                     # (its scan is a row of the batch, which the reset's scan overwrites)
-                    final_obs[i], final_info[i] = {**obs, "lrf": obs["lrf"].copy()}, infos[i]
+                    final[i] = ({**obs, "lrf": obs["lrf"].copy()}, infos[i])
                     obs, infos[i] = env.reset()
                     scans[i] = obs["lrf"]
-        batched = self._batch_infos(infos)
-        if not next_step and any(info is not None for info in final_info):
-            done = [i for i in range(n) if final_info[i] is not None]
-            objects = np.full(n, None, dtype=object)
-            for i in done:
-                objects[i] = final_obs[i]
-            mask = np.zeros(n, dtype=np.bool_)
-            mask[done] = True
-            batched["final_obs"], batched["_final_obs"] = objects, mask
-            batched["final_info"], batched["_final_info"] = self._batch_infos(final_info), mask.copy()
-        return {"lrf": scans, "odom": self._odometry()}, rewards, terminated, truncated, batched
+        return {"lrf": scans, "odom": self._odometry()}, rewards, terminated, truncated, infos, final
 
     def _observations(self) -> dict[str, np.ndarray]:
         return {"lrf": np.stack([env.last_scan for env in self.envs]), "odom": self._odometry()}

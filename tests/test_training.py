@@ -340,3 +340,39 @@ def test_ship_counts_a_checkpoint_between_evaluations_and_a_start_from_a_shipped
     lines = history(run)
     assert "agents/models/ppo_escape.zip" in lines[0] and "not a run directory" in lines[0]
     assert lines[-1] == "`pico-gym train --config x.yaml`"
+
+
+def test_the_training_vec_env_returns_what_dummy_vec_env_returns(tiny_config):
+    """make_vec_env's in-process VecEnv skips DummyVecEnv's deep copy of the infos, nothing else:
+    observations, rewards, dones and infos (terminal observations included) are DummyVecEnv's."""
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    from pico_gym.train.ppo import make_env, make_vec_env
+
+    ours = make_vec_env(tiny_config, seed=4)
+    theirs = DummyVecEnv([lambda i=i: make_env(tiny_config, np.random.default_rng([4, i, 0]), i) for i in range(2)])
+    assert np.array_equal(ours.reset(), theirs.reset())
+    rng = np.random.default_rng(0)
+    dones = 0
+    for _ in range(400):
+        actions = rng.uniform(-1.0, 1.0, size=(2, 3)).astype(np.float32)
+        (o1, r1, d1, i1), (o2, r2, d2, i2) = ours.step(actions), theirs.step(actions)
+        assert np.array_equal(o1, o2) and np.array_equal(r1, r2) and np.array_equal(d1, d2)
+        for a, b in zip(i1, i2, strict=True):
+            assert a.keys() == b.keys()
+            if "terminal_observation" in a:
+                assert np.array_equal(a["terminal_observation"], b["terminal_observation"])
+            assert a["sim_time"] == b["sim_time"] and a["termination_reason"] == b["termination_reason"]
+        dones += int(d1.sum())
+    assert dones >= 2
+    ours.close()
+    theirs.close()
+
+
+def test_bench_train_prints_its_rows(capsys):
+    from pico_gym.cli import main
+
+    assert main(["bench-train", "--rounds", "1", "--rollouts", "1"]) == 0
+    out = capsys.readouterr().out
+    for row in ("toy env (206-float Box observation)", "x the toy", "the wrapper tax", "x DummyVecEnv"):
+        assert row in out

@@ -114,3 +114,32 @@ def test_vector_env_refuses_bad_input() -> None:
     with pytest.raises(ValueError, match="reset_mask"):
         vector.reset(options={"reset_mask": np.array([1, 0])})
     vector.close()
+
+
+def test_sb3_vec_env_gives_what_dummy_vec_env_gives() -> None:
+    """The SB3 adapter over the vector env hands SB3 the observations, rewards, dones and infos
+    (terminal observations included) of SB3's own DummyVecEnv over single envs."""
+    pytest.importorskip("stable_baselines3")
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    from pico_gym.train.sb3_vec import PicoSB3VecEnv
+
+    options = {"time_limit_s": 4.0, "n_obstacles": 1}
+    dummy = DummyVecEnv([lambda: gym.make("PicoEscape-v0", **options) for _ in range(3)])
+    ours = PicoSB3VecEnv("PicoEscape-v0", 3, **options)
+    dummy.seed(21)
+    ours.seed(21)
+    assert_same(dummy.reset(), ours.reset())
+    rng = np.random.default_rng(1)
+    done_seen = 0
+    for t in range(90):
+        actions = rng.uniform(-0.5, 0.5, size=(3, 3)).astype(np.float32)
+        expected, got = dummy.step(actions), ours.step(actions)
+        assert_same(expected[:3], got[:3], f"step {t}")
+        for a, b in zip(expected[3], got[3], strict=True):
+            assert_same(a, b, f"step {t} info")
+        done_seen += int(expected[2].sum())
+    assert done_seen >= 3
+    assert ours.get_attr("steps") == [env.unwrapped.steps for env in dummy.envs]
+    assert ours.env_is_wrapped(gym.Wrapper) == [False] * 3
+    ours.close()

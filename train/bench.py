@@ -1,0 +1,189 @@
+"""`pico-gym bench-train`: what training costs beyond the policy, measured side by side in one run.
+
+Rows, each the median of interleaved rounds (same load for all):
+
+- SB3's PPO with the config's hyper-parameters on a toy env whose observation has as many floats
+  as the learning wrapper's (nothing but a Box and a constant reward: the policy's own cost), and
+  the same PPO on `pico-gym train`'s envs (PicoEscape-v0, episode seeds, the learning wrapper, a
+  Monitor, SB3's DummyVecEnv): the ratio is what the env and its wrappers cost training.
+- The learning wrapper's cost per step: a wrapped env's step against the bare env's.
+- Stepping only (random actions, raw observations): SB3's DummyVecEnv over single envs against
+  `PicoSB3VecEnv` (pico-gym's vector env as an SB3 VecEnv).
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+DEFAULT_CONFIG = Path(__file__).parent / "configs" / "ppo_escape.yaml"
+
+
+class ToyObservationEnv(gym.Env):
+    """A Box observation of `size` floats, actions like PicoEscape-v0's, episodes of 600 steps."""
+
+    def __init__(self, size: int, action_space: gym.spaces.Box) -> None:
+        self.observation_space = gym.spaces.Box(-1.0, 1.0, shape=(size,), dtype=np.float32)
+        self.action_space = action_space
+        self._obs = np.zeros(size, dtype=np.float32)
+        self._t = 0
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict]:
+        super().reset(seed=seed)
+        self._t = 0
+        return self._obs.copy(), {}
+
+    def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict]:
+        self._t += 1
+        return self._obs.copy(), 0.0, False, self._t >= 600, {}
+
+
+def _interleaved(runs: list[Callable[[], int]], rounds: int) -> list[list[float]]:
+    rates: list[list[float]] = [[] for _ in runs]
+    for _ in range(rounds):
+        for k, run in enumerate(runs):
+            t0 = time.perf_counter()
+            count = run()
+            rates[k].append(count / (time.perf_counter() - t0))
+    return rates
+
+
+def _ppo(config: Any, vec_env: Any, seed: int) -> Any:
+    from stable_baselines3 import PPO
+
+    from pico_gym.train.ppo import ZOO_KEYS, _is_number, _policy_kwargs
+
+    zoo = config.zoo
+    hyper = {k: float(v) if isinstance(v, str) and _is_number(v) else v for k, v in zoo.items() if k not in ZOO_KEYS}
+    policy = "MlpPolicy" if isinstance(vec_env.observation_space, gym.spaces.Box) else "MultiInputPolicy"
+    return PPO(
+        policy,
+        vec_env,
+        policy_kwargs=_policy_kwargs(zoo.get("policy_kwargs"), config.source),
+        seed=seed,
+        device="cpu",
+        **hyper,
+    )
+
+
+def cmd_bench_train(args: argparse.Namespace) -> int:
+    import torch
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    from pico_gym.cli import _machine, _versions
+    from pico_gym.train.ppo import EpisodeSeeds, load_config, make_env, make_vec_env, train_env_kwargs
+    from pico_gym.train.sb3_vec import PicoSB3VecEnv
+    from pico_gym.wrappers import PicoLearningWrapper
+
+    config = load_config(args.config)
+    torch.set_num_threads(int(config.pico["torch_threads"]))
+    n_envs = int(config.zoo["n_envs"])
+    per_round = int(config.zoo.get("n_steps", 2048)) * n_envs * args.rollouts
+    print(f"machine : {_machine()}\nversions: {_versions()}")
+    print(
+        f"method  : {args.rounds} interleaved rounds, medians; PPO as in {Path(args.config).name} "
+        f"({n_envs} envs, {per_round:,} steps a round = {args.rollouts} rollouts)\n"
+    )
+
+    pico_vec = make_vec_env(config, args.seed)
+    size = int(np.prod(pico_vec.observation_space.shape))
+    toy_vec = DummyVecEnv([lambda: ToyObservationEnv(size, pico_vec.action_space) for _ in range(n_envs)])
+    toy_model, pico_model = _ppo(config, toy_vec, args.seed), _ppo(config, pico_vec, args.seed)
+    toy_model.learn(per_round // args.rollouts)  # warm-up: JIT caches, allocations
+    pico_model.learn(per_round // args.rollouts)
+
+    def learn(model: Any) -> Callable[[], int]:
+        def run() -> int:
+            before = model.num_timesteps
+            model.learn(per_round, reset_num_timesteps=False)
+            return model.num_timesteps - before
+
+        return run
+
+    toy_fps, pico_fps = _interleaved([learn(toy_model), learn(pico_model)], args.rounds)
+    ratio = statistics.median(p / t for p, t in zip(pico_fps, toy_fps, strict=True))
+    print(f"{'SB3 PPO, toy env (' + str(size) + '-float Box observation)':<58} {statistics.median(toy_fps):8,.0f} fps")
+    print(
+        f"{'SB3 PPO, pico-gym train envs (PicoEscape-v0 + wrappers)':<58} {statistics.median(pico_fps):8,.0f} fps"
+        f"   {ratio:.2f}x the toy (median of per-round ratios)"
+    )
+    pico_vec.close()
+
+    # The learning wrapper's cost per step: a wrapped env against the same bare env.
+    steps = 5000
+    # The same chain without the learning wrapper and the Monitor: the same rooms (episode seeds
+    # from the same generator) and the same actions, so both reset as often.
+    wrapped = make_env(config, np.random.default_rng(args.seed))
+    bare = EpisodeSeeds(gym.make(config.env_id, **train_env_kwargs(config, 0)), np.random.default_rng(args.seed))
+    wrapped.reset(seed=args.seed)
+    bare.reset(seed=args.seed)
+    rng = np.random.default_rng(args.seed)
+    unit_actions = rng.uniform(-1.0, 1.0, size=(steps, 3)).astype(np.float32)
+    low, high = bare.action_space.low, bare.action_space.high
+    raw_actions = (low + (unit_actions + 1.0) * 0.5 * (high - low)).astype(np.float32)
+
+    def stepping(env: gym.Env, actions: np.ndarray) -> Callable[[], int]:
+        def run() -> int:
+            for a in actions:
+                _, _, terminated, truncated, _ = env.step(a)
+                if terminated or truncated:
+                    env.reset()
+            return len(actions)
+
+        return run
+
+    wrapped_rate, bare_rate = _interleaved([stepping(wrapped, unit_actions), stepping(bare, raw_actions)], args.rounds)
+    assert any(isinstance(w, PicoLearningWrapper) for w in _chain(wrapped))
+    tax_us = statistics.median((1.0 / w - 1.0 / b) * 1e6 for w, b in zip(wrapped_rate, bare_rate, strict=True))
+    print(
+        f"{'training env step (learning wrapper + Monitor)':<58} {statistics.median(wrapped_rate):8,.0f} steps/s"
+        f"   {tax_us:.1f} us a step over the env's {statistics.median(bare_rate):,.0f} steps/s (the wrapper tax)"
+    )
+
+    # Stepping only, raw observations: DummyVecEnv over single envs against the vector env.
+    dummy = DummyVecEnv([lambda: gym.make(config.env_id) for _ in range(n_envs)])
+    ours = PicoSB3VecEnv(config.env_id, n_envs)
+    for venv in (dummy, ours):
+        venv.seed(args.seed)
+        venv.reset()
+    batches = rng.uniform(low, high, size=(steps // n_envs, n_envs, 3)).astype(np.float32)
+
+    def vec_stepping(venv: Any) -> Callable[[], int]:
+        def run() -> int:
+            for a in batches:
+                venv.step(a)
+            return len(batches) * n_envs
+
+        return run
+
+    dummy_rate, ours_rate = _interleaved([vec_stepping(dummy), vec_stepping(ours)], args.rounds)
+    ratio = statistics.median(o / d for o, d in zip(ours_rate, dummy_rate, strict=True))
+    print(f"{f'SB3 DummyVecEnv, {n_envs} envs, raw observations':<58} {statistics.median(dummy_rate):8,.0f} steps/s")
+    print(
+        f"{f'PicoSB3VecEnv (pico-gym vector env), {n_envs} envs':<58} {statistics.median(ours_rate):8,.0f} steps/s"
+        f"   {ratio:.2f}x DummyVecEnv"
+    )
+    return 0
+
+
+def _chain(env: gym.Env) -> list[gym.Env]:
+    out = [env]
+    while hasattr(out[-1], "env"):
+        out.append(out[-1].env)
+    return out
+
+
+def add_bench_train(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("bench-train", help="training throughput: PPO on pico-gym's envs against a toy env")
+    p.add_argument("--config", default=str(DEFAULT_CONFIG), help="YAML config (rl-zoo3 layout)")
+    p.add_argument("--rounds", type=int, default=3, help="interleaved rounds (medians are printed)")
+    p.add_argument("--rollouts", type=int, default=4, help="PPO rollouts (and updates) per round")
+    p.add_argument("--seed", type=int, default=0)
+    p.set_defaults(func=cmd_bench_train)
