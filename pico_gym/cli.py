@@ -372,22 +372,31 @@ def cmd_bench_env(args: argparse.Namespace) -> int:
     print()
     bench_lrf(args.repeats, args.seed)
     print()
-    for mode in ("sync", "async"):
-        venv = gym.make_vec("PicoEscape-v0", num_envs=2, vectorization_mode=mode)
+
+    # Vector envs: N robots per call, aggregate env steps/s, interleaved with the single env.
+    def vec_rate(mode: str, n: int) -> Callable[[], int]:
+        venv = gym.make_vec("PicoEscape-v0", num_envs=n, vectorization_mode=mode)
         venv.reset(seed=args.seed)
         venv.action_space.seed(args.seed)
-        batch = [venv.action_space.sample() for _ in range(args.steps // 4)]
-        for a in batch[:100]:
+        batch = [venv.action_space.sample() for _ in range(max(args.steps // n, 1))]
+        for a in batch[:20]:
             venv.step(a)
 
-        def vec_run(venv: gym.vector.VectorEnv = venv, batch: list = batch) -> int:
+        def run(venv: gym.vector.VectorEnv = venv, batch: list = batch) -> int:
             for a in batch:
                 venv.step(a)
-            return 2 * len(batch)
+            return n * len(batch)
 
-        median, _ = _median_rate(vec_run, args.repeats)
-        venv.close()
-        print(f"gymnasium.make_vec, 2 envs, {mode:<5} {median:28,.0f} env steps/s (total over both envs)")
+        return run
+
+    single = _env_rate(args.steps, args.seed)
+    vec_rows = [("vector_entry_point", 16), ("sync", 16), ("vector_entry_point", 2), ("async", 2)]
+    rates = _interleaved([single] + [vec_rate(mode, n) for mode, n in vec_rows], args.repeats)
+    print(f"{'PicoEscape-v0, one env (gym.make)':<60} {statistics.median(rates[0]):9,.0f} steps/s")
+    for (mode, n), r in zip(vec_rows, rates[1:], strict=True):
+        ratio = statistics.median(x / s for x, s in zip(r, rates[0], strict=True))
+        label = f"gymnasium.make_vec, {n} envs, {mode}"
+        print(f"{label:<60} {statistics.median(r):9,.0f} env steps/s  {ratio:5.2f}x one env (aggregate)")
     return 0
 
 

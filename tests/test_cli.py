@@ -75,7 +75,8 @@ def test_bench_env_prints_all_figures(capsys: pytest.CaptureFixture[str]) -> Non
     assert out.count("steps/s") >= 5 and "resets/s" in out
     for n in (20, 100, 400):
         assert f"{n:>3} segments" in out
-    assert "make_vec, 2 envs, sync" in out and "make_vec, 2 envs, async" in out
+    for row in ("16 envs, vector_entry_point", "16 envs, sync", "2 envs, vector_entry_point", "2 envs, async"):
+        assert f"make_vec, {row}" in out
 
 
 def test_clutter_scene_has_the_asked_segment_count() -> None:
