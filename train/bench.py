@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import argparse
 import statistics
-import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -45,14 +44,14 @@ class ToyObservationEnv(gym.Env):
         return self._obs.copy(), 0.0, False, self._t >= 600, {}
 
 
-def _interleaved(runs: list[Callable[[], int]], rounds: int) -> list[list[float]]:
-    rates: list[list[float]] = [[] for _ in runs]
-    for _ in range(rounds):
-        for k, run in enumerate(runs):
-            t0 = time.perf_counter()
-            count = run()
-            rates[k].append(count / (time.perf_counter() - t0))
-    return rates
+def _row(label: str, rates: list[float], unit: str, against: tuple[str, list[float]] | None = None) -> None:
+    """One line: the median rate, and its median per-round ratio to another row's rates."""
+    line = f"{label:<58} {statistics.median(rates):8,.0f} {unit}"
+    if against is not None:
+        name, reference = against
+        ratio = statistics.median(r / q for r, q in zip(rates, reference, strict=True))
+        line += f"   {ratio:.2f}x {name}"
+    print(line)
 
 
 def _ppo(config: Any, vec_env: Any, seed: int) -> Any:
@@ -77,7 +76,7 @@ def cmd_bench_train(args: argparse.Namespace) -> int:
     import torch
     from stable_baselines3.common.vec_env import DummyVecEnv
 
-    from pico_gym.cli import _machine, _versions
+    from pico_gym.cli import _interleaved, _machine, _versions
     from pico_gym.train.ppo import EpisodeSeeds, load_config, make_env, make_vec_env, train_env_kwargs
     from pico_gym.train.sb3_vec import PicoSB3VecEnv
     from pico_gym.wrappers import PicoLearningWrapper
@@ -108,12 +107,8 @@ def cmd_bench_train(args: argparse.Namespace) -> int:
         return run
 
     toy_fps, pico_fps = _interleaved([learn(toy_model), learn(pico_model)], args.rounds)
-    ratio = statistics.median(p / t for p, t in zip(pico_fps, toy_fps, strict=True))
-    print(f"{'SB3 PPO, toy env (' + str(size) + '-float Box observation)':<58} {statistics.median(toy_fps):8,.0f} fps")
-    print(
-        f"{'SB3 PPO, pico-gym train envs (PicoEscape-v0 + wrappers)':<58} {statistics.median(pico_fps):8,.0f} fps"
-        f"   {ratio:.2f}x the toy (median of per-round ratios)"
-    )
+    _row(f"SB3 PPO, toy env ({size}-float Box observation)", toy_fps, "fps")
+    _row("SB3 PPO, pico-gym train envs (PicoEscape-v0 + wrappers)", pico_fps, "fps", ("the toy", toy_fps))
     pico_vec.close()
 
     # The learning wrapper's cost per step: a wrapped env against the same bare env.
@@ -164,12 +159,8 @@ def cmd_bench_train(args: argparse.Namespace) -> int:
         return run
 
     dummy_rate, ours_rate = _interleaved([vec_stepping(dummy), vec_stepping(ours)], args.rounds)
-    ratio = statistics.median(o / d for o, d in zip(ours_rate, dummy_rate, strict=True))
-    print(f"{f'SB3 DummyVecEnv, {n_envs} envs, raw observations':<58} {statistics.median(dummy_rate):8,.0f} steps/s")
-    print(
-        f"{f'PicoSB3VecEnv (pico-gym vector env), {n_envs} envs':<58} {statistics.median(ours_rate):8,.0f} steps/s"
-        f"   {ratio:.2f}x DummyVecEnv"
-    )
+    _row(f"SB3 DummyVecEnv, {n_envs} envs, raw observations", dummy_rate, "steps/s")
+    _row(f"PicoSB3VecEnv (pico-gym vector env), {n_envs} envs", ours_rate, "steps/s", ("DummyVecEnv", dummy_rate))
     return 0
 
 

@@ -206,7 +206,13 @@ def _dijkstra_run(
 @njit
 def _heap_push(keys: FloatArray, cells: np.ndarray, size: int, key: float, cell: int) -> int:
     """Push (key, cell) onto the heap keys[:size], cells[:size] (with room for it); returns the new size."""
-    i = size
+    _sift_up(keys, cells, size, key, cell)
+    return size + 1
+
+
+@njit
+def _sift_up(keys: FloatArray, cells: np.ndarray, i: int, key: float, cell: int) -> None:
+    """Put (key, cell) at the hole i, moving it up past the parents it orders before."""
     while i > 0:
         parent = (i - 1) >> 1
         pk = keys[parent]
@@ -217,7 +223,6 @@ def _heap_push(keys: FloatArray, cells: np.ndarray, size: int, key: float, cell:
         i = parent
     keys[i] = key
     cells[i] = cell
-    return size + 1
 
 
 @njit
@@ -237,16 +242,7 @@ def _heap_pop(keys: FloatArray, cells: np.ndarray, size: int) -> int:
         cells[i] = cells[child]
         i = child
         child = 2 * i + 1
-    while i > 0:
-        parent = (i - 1) >> 1
-        pk = keys[parent]
-        if pk < key or (pk == key and cells[parent] < cell):
-            break
-        keys[i] = pk
-        cells[i] = cells[parent]
-        i = parent
-    keys[i] = key
-    cells[i] = cell
+    _sift_up(keys, cells, i, key, cell)
     return size
 
 
