@@ -148,6 +148,22 @@ def test_parking_puts_the_pose_back_at_the_wall_when_the_wheels_slip() -> None:
     assert float(np.hypot(*error)) < 0.15  # along it: the odometry's own drift (it was 0.7 m)
 
 
+def test_a_robot_wedged_across_a_door_turns_its_way_through() -> None:
+    """Dev seed 107: the robot entered a 0.6 m door at 33 deg and the filters stopped every
+    translation (it stood still 45 s, then idle ended the episode); turning slowly towards the way
+    once stopped in the doorway takes it through, and it explores on and parks."""
+    env = explore_env()
+    agent = make_agent("classic", env)
+    obs, info = env.reset(seed=107)
+    agent.reset(obs, {"task": info["task"]})
+    for _ in range(6000):
+        obs, _, terminated, truncated, info = env.step(agent.act(obs))
+        if agent.state is State.PARKED or terminated or truncated:
+            break
+    assert agent.state is State.PARKED and info["parked"] and info["bumps"] == 0, info["termination_reason"]
+    assert min(info["room_coverage"]) >= 0.95
+
+
 def test_a_small_frontier_counts_when_it_opens_into_the_unknown_not_at_a_gap_in_a_wall() -> None:
     """A door seen at a grazing angle leaves a frontier of a cell or two: looked at when the
     unknown beside it is open across the way in, not when it is a hole in a mapped wall."""

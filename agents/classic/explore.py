@@ -1141,8 +1141,13 @@ class ExploreAgent(Agent):
         r, c = self._plan_cell(here)
         if self._clearance[r, c] < cfg.narrow_m:
             # In the doorway itself: no turning (the jamb's far corners have not been seen), the
-            # holonomic base translates through at the heading it came in with.
-            return float(v[0]), float(v[1]), 0.0
+            # holonomic base translates through at the heading it came in with; unless that is
+            # wedged across the door (the filters have stopped it for a second: dev seed 107
+            # stood 45 s entered at 33 deg), then it turns towards the way as the turn filter lets it.
+            if self.still_steps < self._steps(1.0):
+                return float(v[0]), float(v[1]), 0.0
+            w = min(max(heading_rate(error, self.motion), -0.3), 0.3)  # slowly: the map is matched as it turns
+            return float(v[0]), float(v[1]), self._safe_turn(near, w)
         if abs(error) > 1.0:
             v = v * 0.2  # turn first
         return float(v[0]), float(v[1]), self._safe_turn(near, heading_rate(error, self.motion))
