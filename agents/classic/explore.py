@@ -1146,7 +1146,7 @@ class ExploreAgent(Agent):
             # stood 45 s entered at 33 deg), then it turns towards the way as the turn filter lets it.
             if self.still_steps < self._steps(1.0):
                 return float(v[0]), float(v[1]), 0.0
-            w = min(max(heading_rate(error, self.motion), -0.3), 0.3)  # slowly: the map is matched as it turns
+            w = min(max(heading_rate(error, self.motion), -0.3), 0.3)  # slowly: the map is built as it turns
             return float(v[0]), float(v[1]), self._safe_turn(near, w)
         if abs(error) > 1.0:
             v = v * 0.2  # turn first
