@@ -13,6 +13,10 @@ the one its own env would compute, so observations, rewards, terminations and in
 `gymnasium.make_vec(..., vectorization_mode="sync")` bit for bit (tested). Autoreset follows
 gymnasium's modes: NEXT_STEP (the default, as `SyncVectorEnv`) or SAME_STEP (the final observation
 and info in `info["final_obs"]`, `info["final_info"]`; what Stable-Baselines3's `VecEnv` expects).
+
+A friend of `PicoEnv` inside the package: it calls the step's parts (`_act`, `_sense`, `_judge`)
+and reads what the single step hands its LRF (`_pose`, `_seen`, `_movers`, `_one_sided`) and the
+LRF's kept constants, so that a scan in the batch is the scan the env itself would take.
 """
 
 from __future__ import annotations
