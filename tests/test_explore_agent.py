@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -128,18 +129,24 @@ def test_distance_transform_is_the_chamfer_distance() -> None:
     assert d[2, 2] == 0.0 and d[2, 3] == 0.1 and abs(d[3, 3] - 0.1 * math.sqrt(2)) < 1e-12 and d[2, 4] == 0.2
 
 
-def test_parking_puts_the_pose_back_at_the_wall_when_the_wheels_slip() -> None:
-    """Dev seed 102: nothing straight ahead in range, so the scan cannot tell the robot stopped at
-    the wall; the odometry counting 8 cm past the (refitted) wall ends the reverse, and the pose
-    is put back at the wall (it used to count 0.7 m against it and search with that error)."""
+def run_until_parked(seed: int) -> tuple[Any, Any, dict]:
+    """The classic explore agent from a reset until it parks or the episode ends: (env, agent, last info)."""
     env = explore_env()
     agent = make_agent("classic", env)
-    obs, info = env.reset(seed=102)
+    obs, info = env.reset(seed=seed)
     agent.reset(obs, {"task": info["task"]})
     for _ in range(6000):
         obs, _, terminated, truncated, info = env.step(agent.act(obs))
         if agent.state is State.PARKED or terminated or truncated:
             break
+    return env, agent, info
+
+
+def test_parking_puts_the_pose_back_at_the_wall_when_the_wheels_slip() -> None:
+    """Dev seed 102: nothing straight ahead in range, so the scan cannot tell the robot stopped at
+    the wall; the odometry counting 8 cm past the (refitted) wall ends the reverse, and the pose
+    is put back at the wall (it used to count 0.7 m against it and search with that error)."""
+    env, agent, info = run_until_parked(102)
     assert agent.state is State.PARKED and info["parked"] and info["bumps"] == 0
     truth = compose(env.unwrapped._odom_from_map, env.unwrapped.pose)
     error = np.array([agent.pose.x - truth.x, agent.pose.y - truth.y])
@@ -152,14 +159,7 @@ def test_a_robot_wedged_across_a_door_turns_its_way_through() -> None:
     """Dev seed 107: the robot entered a 0.6 m door at 33 deg and the filters stopped every
     translation (it stood still 45 s, then idle ended the episode); turning slowly towards the way
     once stopped in the doorway takes it through, and it explores on and parks."""
-    env = explore_env()
-    agent = make_agent("classic", env)
-    obs, info = env.reset(seed=107)
-    agent.reset(obs, {"task": info["task"]})
-    for _ in range(6000):
-        obs, _, terminated, truncated, info = env.step(agent.act(obs))
-        if agent.state is State.PARKED or terminated or truncated:
-            break
+    env, agent, info = run_until_parked(107)
     assert agent.state is State.PARKED and info["parked"] and info["bumps"] == 0, info["termination_reason"]
     assert min(info["room_coverage"]) >= 0.95
 
