@@ -16,7 +16,9 @@ from pico_gym.agents.classic.explore import (
     _component_sizes,
     _components,
     _distance_transform,
+    _free_standing,
     _opening,
+    _room_depths,
 )
 from pico_gym.tasks.explore import OccupancyBelief
 from pico_gym.world.geometry import compose, point_clearance
@@ -189,3 +191,43 @@ def test_component_sizes_are_those_of_the_components() -> None:
         for cells in _components(mask):
             expected[cells[:, 0], cells[:, 1]] = len(cells)
         assert np.array_equal(_component_sizes(mask), expected)
+
+
+def test_room_depths_count_the_rooms_on_the_way_through_doors() -> None:
+    """A 1.2 m hallway (the start at its end), room A off it through a 0.9 m door, room B behind A
+    through a 1.4 m door, room C off the hallway through a 0.6 m door; 0.2 m walls, 0.1 m cells."""
+    walls = np.ones((70, 120), dtype=bool)
+    walls[2:14, 2:118] = False  # hallway, rows 2-13
+    walls[16:46, 10:45] = False  # room A (3.0 x 3.5 m)
+    walls[14:16, 22:31] = False  # door hallway -> A
+    walls[48:68, 10:45] = False  # room B (2.0 x 3.5 m) behind A
+    walls[46:48, 15:29] = False  # door A -> B
+    walls[16:40, 60:100] = False  # room C
+    walls[14:16, 75:81] = False  # door hallway -> C
+    free = ~walls
+    depths = _room_depths(free, walls, (8, 4), 0.1, 0.92, 1.02)
+    assert depths[8, 60] == 0  # the hallway
+    assert depths[30, 27] == 1 and depths[30, 80] == 1  # A and C
+    assert depths[58, 27] == 2  # B
+    assert depths[walls].max() == 0
+    # A stray hit in the middle of a room is not a wall (the agent keeps groups of four or more):
+    # with it counted, B's middle is gone and B is no room of its own.
+    assert (
+        _room_depths(
+            free, walls | (np.arange(120) == 27)[None, :] & (np.arange(70) == 58)[:, None], (8, 4), 0.1, 0.92, 1.02
+        )[58, 20]
+        < 2
+    )
+
+
+def test_free_standing_marks_a_box_before_a_wall_and_not_the_wall() -> None:
+    angles = np.linspace(-2.0, 2.0, 1000)
+    wall = 3.0 / np.maximum(np.cos(angles), 0.3)  # a wall 3 m ahead (capped at the sides)
+    box = np.abs(np.arctan2(np.sin(angles), np.cos(angles)) - 0.2) < 0.15  # about 0.45 m across at 1.5 m
+    ranges = np.where(box, 1.5, wall)
+    standing = _free_standing(ranges, angles, 0.8)
+    assert standing[box].all()
+    assert not standing[~box].any()
+    # The same run against the wall (no background behind it) is not standing free; nor a long one.
+    assert not _free_standing(np.where(box, wall - 0.05, wall), angles, 0.8)[box].all()
+    assert not _free_standing(ranges, angles, 0.3)[box].any()
