@@ -572,7 +572,10 @@ class ExploreAgent(Agent):
         self.backoff_until = 0
         self.unstick_until = 0
         self.still_steps = 0
+        self.unsticks = 0
+        self._lrf_points = 0
         self.step_out_until = 0
+        self.step_out = (0.0, 0.0, 0.0)
         self.retried: list[FloatArray] = []
         self.at_standoff = False
         self.small_goal = False
@@ -647,14 +650,18 @@ class ExploreAgent(Agent):
         # the same points (the field seeing them where they were mapped: dev seeds 100-129, bumps
         # 3.3 -> 13.3 %); the field's local minimum they make in a doorway (dev seed 123: 500 s
         # still) is escaped in `_follow`.
+        self._lrf_points = len(near)
         near = np.vstack([near, self._wary(behind[blind])])
         if self.stored is not None:
             self._look_for_object(ranges)
         moving = math.hypot(delta.x, delta.y) > 0.003 or abs(delta.theta) > 0.01
         waiting = self.state in (State.PARKED, State.FOUND, State.REVERSE)
         self.still_steps = 0 if moving or waiting else self.still_steps + 1
+        if moving:
+            self.unsticks = 0
         if self.still_steps > self._steps(8.0):
             self.unstick_until = self.steps + self._steps(1.5)
+            self.unsticks += 1
             self.still_steps = 0
             self.path = []
         if self.steps < self.unstick_until:
@@ -665,6 +672,12 @@ class ExploreAgent(Agent):
             a = float(self.angles[k])
             command = (0.12 * math.cos(a), 0.12 * math.sin(a), 0.0)
             vx, vy, w = safety_filter(near, command, self.motion)
+            if vx == vy == 0.0 and self.unsticks >= 2:
+                # Wedged for 16 s, every way refused within the filters' margins (a jamb 2 cm
+                # beside it: dev seed 208): the idle rule ends the episode at 30 s, so it edges
+                # out with the margins cut to 1 cm and what the LRF sees now.
+                tight = dataclasses.replace(self.motion, margin=0.01, floor=0.01, slack=0.005)
+                vx, vy, w = safety_filter(near[: self._lrf_points], command, tight)
             self.previous_odom = odom
             self.previous_ranges = ranges
             return np.array([vx, vy, w], dtype=np.float32)
@@ -999,12 +1012,29 @@ class ExploreAgent(Agent):
             window[cells[:, 0] - r0, cells[:, 1] - c0] = False
             if window.any() or free[r0:r1, c0:c1].sum() < 0.6 * window.size:
                 continue
+            if self.phase != "find" and self._in_stored(cells):
+                continue  # there before the object was (dev seeds 220, 244: a jamb mapped anew off its place)
             spot = np.array(
                 [p.x0 + (cells[:, 1].mean() + 0.5) * p.resolution, p.y0 + (cells[:, 0].mean() + 0.5) * p.resolution]
             )
             if all(np.linalg.norm(spot - q) > 0.5 for q in self.given_up):
                 self.object = spot
                 return
+
+    def _in_stored(self, cells: np.ndarray, reach: int = 2) -> bool:
+        """Whether the map stored at parking had anything occupied within `reach` planning cells
+        of these (view) cells: the object is placed once the robot has parked."""
+        r0, _, c0, _ = self.view
+        stored = self.stored
+        n = stored.shape[0]
+        for r, c in cells:
+            fr, fc = 2 * (r + r0), 2 * (c + c0)
+            k = 2 * reach
+            if (
+                stored[max(fr - k, 0) : min(fr + k + 2, n), max(fc - k, 0) : min(fc + k + 2, n)] > self.config.occupied
+            ).any():
+                return True
+        return False
 
     def _approach(self, ranges: FloatArray, near: FloatArray, odom: Pose, delta: Pose) -> tuple[float, float, float]:
         cfg = self.config
@@ -1018,11 +1048,13 @@ class ExploreAgent(Agent):
             rel = np.abs(np.array([wrap_angle(a - error) for a in self.angles[::5]])) < 0.3
             ahead = ranges[::5][rel]
             closest = float(ahead.min()) if len(ahead) else math.inf
-            if closest <= cfg.stop_range_m and abs(error) < 0.2:
+            if closest <= cfg.stop_range_m and abs(error) < self.motion.visible_bearing:
                 self._go(State.FOUND)
                 return 0.0, 0.0, 0.0
-            forward = 0.1 if abs(error) < 0.3 else 0.0
-            return forward, 0.0, heading_rate(error, self.motion)
+            # Towards it as it turns (holonomic; a turn a jamb refuses must not stop the creep:
+            # dev seed 248 stood 300 s in a door, 0.65 m from the object, facing 27 deg off it).
+            forward = 0.1 if abs(error) < self.motion.visible_bearing else 0.0
+            return forward * math.cos(error), forward * math.sin(error), heading_rate(error, self.motion)
         if self._replan_due():
             if not self._plan_to(obj, stop_m=0.6):
                 self.object = None
@@ -1300,17 +1332,18 @@ class ExploreAgent(Agent):
             v = v - float(v @ u) * u + 0.25 * speed * u
         heading = travel - math.pi / 2 if tight else travel
         error = wrap_angle(heading - self.pose.theta)
-        if self.steps < self.step_out_until or (
-            self.still_steps >= self._steps(1.0)
-            and abs(math.atan2(goal[1], goal[0])) > self.motion.visible_bearing
-            and self._open_ahead(near, 0.5)
-        ):
+        if self.steps < self.step_out_until:
+            return self.step_out
+        if self.still_steps >= self._steps(1.0) and abs(math.atan2(goal[1], goal[0])) > self.motion.visible_bearing:
             # Stuck with the way on behind (a new plan turned it round in or by a door): the
             # blind sector lets it neither back out nor turn past the jamb, so it steps out
-            # ahead, where the LRF sees, and turns there (dev seed 226 stood 200 s so).
-            if self.steps >= self.step_out_until:
-                self.step_out_until = self.steps + self._steps(2.0)
-            return 0.15, 0.0, 0.0
+            # ahead, where the LRF sees, and turns there (dev seed 226 stood 200 s so); edging
+            # off a jamb beside it if straight on is too close to it (dev seed 208).
+            for side in (0.0, 0.06, -0.06):
+                if self._filtered(near, 0.15, side, 0.0)[0] > 0.05:
+                    self.step_out = (0.15, side, 0.0)
+                    self.step_out_until = self.steps + self._steps(2.0)
+                    return self.step_out
         r, c = self._plan_cell(here)
         if self._clearance[r, c] < cfg.narrow_m:
             # In the doorway itself: no turning (the jamb's far corners have not been seen), the
@@ -1353,11 +1386,6 @@ class ExploreAgent(Agent):
 
     def _safe_turn(self, near: FloatArray, w: float) -> float:
         return safe_turn(near, w, self.motion)
-
-    def _open_ahead(self, near: FloatArray, length_m: float) -> bool:
-        """Nothing in `near` (robot frame) in the footprint's width straight ahead within `length_m`."""
-        ahead = (near[:, 0] > 0.0) & (near[:, 0] < self.motion.half_depth + length_m)
-        return not bool((ahead & (np.abs(near[:, 1]) < self.motion.half_width + 0.05)).any())
 
     def _tight_ahead(self, here: FloatArray, length_m: float) -> bool:
         """Whether the path's next `length_m` passes anywhere narrower than `narrow_m` (so the
