@@ -251,3 +251,21 @@ def test_the_blind_sector_holds_recent_hits_only() -> None:
     points = agent._mapped_near(0.7)
     nearest = points[np.argmin(np.hypot(points[:, 0] + 0.4, points[:, 1]))]
     assert np.hypot(nearest[0] + 0.4, nearest[1]) < 0.05
+
+
+def test_wall_directions_give_a_rectilinear_rooms_axes_modulo_90_degrees() -> None:
+    """A scan of a 4 x 3 m room rotated by 20 deg, from off its centre: the straight pieces of wall
+    agree on one direction modulo 90 deg, 20 deg in the robot frame (a corner is no piece)."""
+    from pico_gym.agents.classic.explore import _wall_directions
+    from pico_gym.sensors.lrf import lrf_ranges
+    from pico_gym.types import Pose
+
+    room = np.array([[-2, -1.5, 2, -1.5], [2, -1.5, 2, 1.5], [2, 1.5, -2, 1.5], [-2, 1.5, -2, -1.5]], float)
+    angles = np.linspace(-0.75 * math.pi, 0.75 * math.pi, 1000)
+    for heading in (0.0, 0.3, -1.2):
+        ranges = lrf_ranges(Pose(0.4, -0.3, heading - math.radians(20)), room, angles)
+        c4, s4, n = _wall_directions(ranges, angles, 8, 4, 4.0)
+        assert n > 100 and math.hypot(c4, s4) > 0.99 * n  # every piece agrees
+        axis = math.atan2(s4, c4) / 4.0  # the walls' direction in the robot frame, modulo 90 deg
+        expected = math.radians(20) - heading
+        assert abs(math.remainder(4.0 * (axis - expected), 2 * math.pi)) / 4.0 < math.radians(0.1)
