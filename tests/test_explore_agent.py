@@ -19,8 +19,11 @@ from pico_gym.agents.classic.explore import (
     _free_standing,
     _opening,
     _room_depths,
+    _wall_directions,
 )
+from pico_gym.sensors.lrf import lrf_ranges
 from pico_gym.tasks.explore import OccupancyBelief
+from pico_gym.types import Pose
 from pico_gym.world.geometry import compose, point_clearance
 
 
@@ -256,10 +259,6 @@ def test_the_blind_sector_holds_recent_hits_only() -> None:
 def test_wall_directions_give_a_rectilinear_rooms_axes_modulo_90_degrees() -> None:
     """A scan of a 4 x 3 m room rotated by 20 deg, from off its centre: the straight pieces of wall
     agree on one direction modulo 90 deg, 20 deg in the robot frame (a corner is no piece)."""
-    from pico_gym.agents.classic.explore import _wall_directions
-    from pico_gym.sensors.lrf import lrf_ranges
-    from pico_gym.types import Pose
-
     room = np.array([[-2, -1.5, 2, -1.5], [2, -1.5, 2, 1.5], [2, 1.5, -2, 1.5], [-2, 1.5, -2, -1.5]], float)
     angles = np.linspace(-0.75 * math.pi, 0.75 * math.pi, 1000)
     for heading in (0.0, 0.3, -1.2):

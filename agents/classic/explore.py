@@ -623,7 +623,6 @@ class ExploreAgent(Agent):
         self.reversed_m = 0.0
         self.stored: np.ndarray | None = None
         self.axes = np.zeros(2)  # the walls' (cos 4a, sin 4a) summed in the agent frame while looking
-        self.square_fixes = 0
         self.depths: np.ndarray | None = None  # rooms entered to reach each planning cell (at parking)
         self.evidence = np.zeros((n // 2, n // 2))
         self.object: FloatArray | None = None
@@ -788,7 +787,6 @@ class ExploreAgent(Agent):
         error = wrap_angle(math.atan2(ws, wc) - math.atan2(self.axes[1], self.axes[0])) / 4.0
         if abs(error) < math.radians(cfg.square_window_deg):
             self.pose = Pose(self.pose.x, self.pose.y, wrap_angle(self.pose.theta - cfg.square_gain * error))
-            self.square_fixes += 1
 
     # --- states -------------------------------------------------------------------------------
     def _look(self, ranges: FloatArray, near: FloatArray, odom: Pose, delta: Pose) -> tuple[float, float, float]:
