@@ -111,6 +111,23 @@ def test_it_finds_the_object_from_a_parked_start() -> None:
     assert info["termination_reason"] == "done" and info["bumps"] == 0
 
 
+def test_the_search_enters_a_deep_room_seen_only_through_its_door() -> None:
+    """Dev seed 112: the object's room (the deepest) was seen while exploring only through its
+    0.65 m door, so its frontier there is two or three cells, shorter than exploring's minimum;
+    the search skipped it and looked at the hallway for 400 s. Any frontier of a large unseen
+    part counts in the search: it goes in and finds the object."""
+    env = explore_env()
+    agent = make_agent("classic", env)
+    obs, info = env.reset(seed=112)
+    agent.reset(obs, {"task": info["task"]})
+    for _ in range(6000):
+        obs, _, terminated, truncated, info = env.step(agent.act(obs))
+        if terminated or truncated:
+            break
+    assert info["termination_reason"] == "done" and info["bumps"] == 0
+    assert info["time_to_find"] < 300.0
+
+
 def test_the_pose_estimate_stays_within_10_cm_while_exploring() -> None:
     env = explore_env()
     agent = make_agent("classic", env)

@@ -1053,10 +1053,13 @@ class ExploreAgent(Agent):
                 # The hint: the object is in the room that needs the most doors to reach. Rooms
                 # by depth, deepest first, each until looked into since parking.
                 depths = self.depths[r0:r1, c0:c1]
+                # Any frontier of a large unseen part counts, however short (a room glimpsed
+                # through its door leaves a frontier of two or three cells there: dev seed 112
+                # searched the hallway for 400 s with the object's room beyond one).
                 for d in range(int(depths.max()), 0, -1):
-                    if self._plan_to_frontier(large & (depths == d)):
+                    if self._plan_to_frontier(large & (depths == d), min_cells=1):
                         return self._follow(near)
-            if not self._plan_to_frontier(large) and not self._plan_to_frontier(unseen):
+            if not self._plan_to_frontier(large, min_cells=1) and not self._plan_to_frontier(unseen):
                 self.checked[:] = False  # looked everywhere: look again
                 return 0.0, 0.0, 0.8
         return self._follow(near)
@@ -1397,9 +1400,6 @@ class ExploreAgent(Agent):
                 near, np.zeros(2), dataclasses.replace(self.follow, repulsion_range=0.4, repulsion_gain=0.02), speed=0.2
             )
             return float(v[0]), float(v[1]), 0.0
-            if remaining < 0.2 and len(self.path) <= 1:
-                self.path = []  # reached: plan anew
-                return 0.0, 0.0, 0.0
         target = self.path[0]
         travel = math.atan2(target[1] - here[1], target[0] - here[0])
         tight = self._tight_ahead(here, 1.2)
