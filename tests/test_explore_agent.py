@@ -99,15 +99,21 @@ def test_it_parks_backwards_by_touch_without_a_bump() -> None:
     assert agent.state in (State.REVERSE, State.PARKED)
 
 
-def test_it_finds_the_object_from_a_parked_start() -> None:
+def run_episode(seed: int, options: dict | None = None, steps: int = 6000) -> dict:
+    """The classic explore agent through one episode (at most `steps`): its last info."""
     env = explore_env()
     agent = make_agent("classic", env)
-    obs, info = env.reset(seed=5, options={"phase": "find"})
+    obs, info = env.reset(seed=seed, options=options)
     agent.reset(obs, {"task": info["task"]})
-    for _ in range(3000):
+    for _ in range(steps):
         obs, _, terminated, truncated, info = env.step(agent.act(obs))
         if terminated or truncated:
             break
+    return info
+
+
+def test_it_finds_the_object_from_a_parked_start() -> None:
+    info = run_episode(5, {"phase": "find"}, steps=3000)
     assert info["termination_reason"] == "done" and info["bumps"] == 0
 
 
@@ -116,14 +122,7 @@ def test_the_search_enters_a_deep_room_seen_only_through_its_door() -> None:
     0.65 m door, so its frontier there is two or three cells, shorter than exploring's minimum;
     the search skipped it and looked at the hallway for 400 s. Any frontier of a large unseen
     part counts in the search: it goes in and finds the object."""
-    env = explore_env()
-    agent = make_agent("classic", env)
-    obs, info = env.reset(seed=112)
-    agent.reset(obs, {"task": info["task"]})
-    for _ in range(6000):
-        obs, _, terminated, truncated, info = env.step(agent.act(obs))
-        if terminated or truncated:
-            break
+    info = run_episode(112)
     assert info["termination_reason"] == "done" and info["bumps"] == 0
     assert info["time_to_find"] < 300.0
 
