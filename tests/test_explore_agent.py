@@ -127,6 +127,16 @@ def test_the_search_enters_a_deep_room_seen_only_through_its_door() -> None:
     assert info["time_to_find"] < 300.0
 
 
+def test_the_stored_map_is_the_one_from_before_the_touch_so_an_object_in_view_is_unexplained() -> None:
+    """Dev seed 466: the object stands 2 m from the parking spot, in view of it. The env places it
+    0.5 s after the touch; the map was stored 1.5 s after the agent was sure of the touch, with
+    the object in it, so nothing there was ever unexplained (the robot passed within 0.15 m of it
+    and searched until the time ran out). Stored as it was before reversing, it is found."""
+    info = run_episode(466)
+    assert info["termination_reason"] == "done" and info["bumps"] == 0
+    assert info["time_to_find"] < 300.0
+
+
 def test_the_pose_estimate_stays_within_10_cm_while_exploring() -> None:
     env = explore_env()
     agent = make_agent("classic", env)
