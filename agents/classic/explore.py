@@ -1021,7 +1021,7 @@ class ExploreAgent(Agent):
 
     def _parked(self, ranges: FloatArray, near: FloatArray, odom: Pose, delta: Pose) -> tuple[float, float, float]:
         if self.state_steps == self._steps(1.5):
-            self.stored = self.before_touch if self.before_touch is not None else self.logodds.copy()
+            self.stored = self.before_touch  # PARKED comes only from REVERSE, which took it
             self.checked[:] = False
             self.evidence[:] = 0.0
             self.depths = self._room_depths()
