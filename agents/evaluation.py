@@ -307,6 +307,7 @@ class Summary:
     time_to_park_median_s: float = math.nan
     map_iou_median: float = math.nan
     map_iou_min: float = math.nan
+    map_iou_at_least_0_9_rate: float = math.nan  # episodes whose map scores 0.9 or more
 
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)
@@ -359,6 +360,7 @@ def _explore_summary(records: list[EpisodeRecord]) -> dict[str, float]:
         "time_to_park_median_s": _median(r.time_to_park_s for r in parked),
         "map_iou_median": float(np.median(ious)) if ious else math.nan,
         "map_iou_min": float(min(ious)) if ious else math.nan,
+        "map_iou_at_least_0_9_rate": sum(v >= 0.9 for v in ious) / len(ious) if ious else math.nan,
     }
 
 
@@ -427,7 +429,13 @@ def format_summary(name: str, s: Summary) -> str:
             ("time to park, median", f"{s.time_to_park_median_s:.1f} s"),
         ]
         if not math.isnan(s.map_iou_median):
-            rows.append(("map IoU (free space) median / worst", f"{s.map_iou_median:.3f} / {s.map_iou_min:.3f}"))
+            rows.append(
+                (
+                    "map IoU (free space) median / worst",
+                    f"{s.map_iou_median:.3f} / {s.map_iou_min:.3f} ({100 * s.map_iou_at_least_0_9_rate:.0f} % of "
+                    "episodes >= 0.9)",
+                )
+            )
     if s.near_mover_s_mean > 0.0:
         rows.append(("time within 0.5 m of a mover, mean", f"{s.near_mover_s_mean:.1f} s"))
     width = max(len(k) for k, _ in rows)

@@ -46,6 +46,10 @@ OBJECT_HINT = "the object is in the room that needs the most doors to reach from
 FIELD_INFLATION_M = 0.1
 # Regions smaller than this are slivers (door corners), not rooms [cells].
 MIN_REGION_CELLS = 20
+# The true free area is rasterised this fine for `belief_iou` (a wall's half cell, 6 mm, is the
+# error: a perfect 5 cm map scores about 0.99).
+IOU_RESOLUTION_M = 0.0125
+IOU_MAX_CELLS = 4_000_000  # coarser on a building larger than 25 m x 25 m (memory)
 
 
 @dataclass(frozen=True)
@@ -238,6 +242,7 @@ class Building:
         depth: doors on the way from region 0 into each region (-1: not reached through doors).
         clearance: each cell's distance to the static geometry (capped at 1.5 m).
         door_clearance: each cell's distance to the door openings (capped at 1.5 m).
+        inside: the point the free area was flooded from.
     """
 
     grid: Grid
@@ -246,23 +251,32 @@ class Building:
     depth: np.ndarray
     clearance: FloatArray
     door_clearance: FloatArray
+    inside: tuple[float, float]
 
     @property
     def n_free(self) -> int:
         return int((self.region >= -1).sum())
 
 
-def building_of(world: Map, inside: tuple[float, float], resolution: float) -> Building:
-    """The free area reachable from the point `inside`, and its rooms (`Building`)."""
+def free_space_of(world: Map, inside: tuple[float, float], resolution: float) -> tuple[Grid, np.ndarray, FloatArray]:
+    """The cells of a `resolution` grid whose centres are reachable from the point `inside`:
+    (grid, free mask, each cell's clearance to the static geometry capped at 1.5 m). A cell
+    whose centre is within half a cell of a wall counts as wall (so no wall line leaks), so the
+    free area comes out about half a cell short along every wall."""
     grid = Grid.covering(world.bounds, resolution, margin=0.5)
     static = _static_segments(world)
     clearance = clearance_grid(grid, static, cap=1.5)
     block = 0.5 * resolution + 1e-6  # at least one blocked cell across every wall line
     costs = CostGrid.from_clearance(grid, clearance, inflation_m=block)
     free = costs.reachable_from(*inside)
-    rows, cols = grid.shape
     if free.sum() == 0 or free[0, :].any() or free[-1, :].any() or free[:, 0].any() or free[:, -1].any():
         raise ValueError(f"{world.source or world.name}: the building is not closed around {inside}")
+    return grid, free, clearance
+
+
+def building_of(world: Map, inside: tuple[float, float], resolution: float) -> Building:
+    """The free area reachable from the point `inside`, and its rooms (`Building`)."""
+    grid, free, clearance = free_space_of(world, inside, resolution)
     doors = [world.polygon(d) for d in world.doors]
     if doors:
         door_segments = np.vstack([geometry.polygon_to_segments(p) for p in doors])
@@ -318,7 +332,7 @@ def building_of(world: Map, inside: tuple[float, float], resolution: float) -> B
                     depth[b] = depth[a] + 1
                     nxt.append(b)
         frontier = nxt
-    return Building(grid, region, counts, depth, clearance, door_clearance)
+    return Building(grid, region, counts, depth, clearance, door_clearance, inside)
 
 
 def _labels_near(grid: Grid, region: np.ndarray, x: float, y: float, reach: float) -> set[int]:
@@ -490,6 +504,7 @@ class ExploreTask(ConfiguredTask):
         self._wall_points = wall.tolist()
         self._away = math.atan2(normal[1], normal[0])
         self._building = building
+        self._iou_truth: tuple[FloatArray, FloatArray, float] | None = None  # `belief_iou`'s, built when first asked
         self._static = static
         self._seen = np.zeros(building.grid.shape, dtype=np.uint8)
         self._region_seen = np.zeros(len(building.region_cells), dtype=np.int64)
@@ -762,14 +777,20 @@ class ExploreTask(ConfiguredTask):
     def belief_iou(self, belief: OccupancyBelief, odom_from_map: Pose) -> float:
         """IoU of the belief's free space with the building's true free area.
 
-        Every true free cell's centre is carried into the odometry frame (where the agent's map
-        lives) through the true pose of that frame at reset, and looked up in the belief.
+        The true free area is rasterised at `IOU_RESOLUTION_M` (not on the coverage grid: a cell
+        there whose centre is within half a cell of a wall counts as wall, 5 cm short along every
+        wall, so a perfect map would score 0.92-0.94). Every true free cell's centre is carried
+        into the odometry frame (where the agent's map lives) through the true pose of that frame
+        at reset, and looked up in the belief; the belief's free area is its free cells' area.
         """
-        b = self._building
-        g = b.grid
-        free = b.region >= -1
-        xs, ys = g.centres()
-        px, py = xs[free], ys[free]
+        if self._iou_truth is None:
+            world = self.episode.map
+            x0, y0, x1, y1 = world.bounds
+            res = max(IOU_RESOLUTION_M, math.sqrt((x1 - x0 + 1.0) * (y1 - y0 + 1.0) / IOU_MAX_CELLS))
+            grid, free, _ = free_space_of(world, self._building.inside, res)
+            xs, ys = grid.centres()
+            self._iou_truth = (xs[free], ys[free], grid.resolution**2)
+        px, py, cell_area = self._iou_truth
         c, s = math.cos(odom_from_map.theta), math.sin(odom_from_map.theta)
         ox = odom_from_map.x + c * px - s * py
         oy = odom_from_map.y + s * px + c * py
@@ -780,9 +801,8 @@ class ExploreTask(ConfiguredTask):
         ok = (row >= 0) & (row < cells.shape[0]) & (col >= 0) & (col < cells.shape[1])
         hit = np.zeros(len(px), dtype=bool)
         hit[ok] = cells[row[ok], col[ok]] == 0
-        cell_area = g.resolution**2
         inter = float(hit.sum()) * cell_area
-        truth = float(free.sum()) * cell_area
+        truth = float(len(px)) * cell_area
         believed = float((cells == 0).sum()) * res**2
         union = truth + believed - inter
         return inter / union if union > 0 else 0.0
