@@ -46,8 +46,8 @@ OBJECT_HINT = "the object is in the room that needs the most doors to reach from
 FIELD_INFLATION_M = 0.1
 # Regions smaller than this are slivers (door corners), not rooms [cells].
 MIN_REGION_CELLS = 20
-# The true free area is rasterised this fine for `belief_iou` (a wall's half cell, 6 mm, is the
-# error: a perfect 5 cm map scores about 0.99).
+# The true free area is rasterised this fine for `belief_iou` (short by 6 mm on average along each
+# wall; an exact map drawn at 5 cm scores 0.98, its own cells' rounding being the rest).
 IOU_RESOLUTION_M = 0.0125
 IOU_MAX_CELLS = 4_000_000  # coarser on a building larger than 25 m x 25 m (memory)
 
@@ -262,7 +262,7 @@ def free_space_of(world: Map, inside: tuple[float, float], resolution: float) ->
     """The cells of a `resolution` grid whose centres are reachable from the point `inside`:
     (grid, free mask, each cell's clearance to the static geometry capped at 1.5 m). A cell
     whose centre is within half a cell of a wall counts as wall (so no wall line leaks), so the
-    free area comes out about half a cell short along every wall."""
+    free area comes out half a cell short along every wall on average."""
     grid = Grid.covering(world.bounds, resolution, margin=0.5)
     static = _static_segments(world)
     clearance = clearance_grid(grid, static, cap=1.5)
