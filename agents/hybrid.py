@@ -9,7 +9,10 @@ navigates, the policy drives instead of its potential field: it sees the LRF (po
 as range and bearing from the agent's own pose estimate, with the heading error to facing the
 cabinet (`encode_goal`, the layout of the point-goal baseline, but computed from what the agent
 knows: no privileged input). Docking, the dwell, yielding and recovery stay classic, and every
-command, the policy's too, passes the classic safety filter (a shield: `HybridConfig.shield`).
+command, the policy's too, passes the classic safety filter (a shield: `HybridConfig.shield`),
+which also remembers what the LRF saw in the last seconds and is now behind the robot
+(`HybridConfig.blind_memory_s`). Where the policy keeps getting stuck on one leg, the classic
+part drives the rest of it (`HybridConfig.fallback_after`).
 
 The policy is trained in exactly this loop (`pico_gym.train.hybrid.HybridTraining`): the classic
 part acts by itself in every state but NAVIGATE, and the policy's encoder sees only the steps it
@@ -18,6 +21,8 @@ drives (`observe` / `policy_input` / `finish` are the seams the training wrapper
 
 from __future__ import annotations
 
+import math
+from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -44,16 +49,33 @@ class HybridConfig:
         shield: pass the policy's commands through the classic safety filter (as the classic
             agent's own): kept in the LRF's view, turns cut near corners, scaled down before the
             footprint comes within its margin.
+        blind_memory_s: the shield also keeps the footprint off what the LRF saw within 1.2 m
+            during the last `blind_memory_s` seconds and is now in its blind sector behind the
+            robot (kept with odometry). The classic part's own memory there (the map's walls and
+            its evidence grid) misses the face of a box that was seen only in passing: the policy,
+            driving sideways and turning fast, swung its rear into such faces. 0 turns it off.
+        fallback_after: after the policy's driving has ended in this many recoveries on one leg
+            (to the next cabinet), the classic part drives the rest of that leg. A policy that
+            heads for a gap the shield will not let it through goes back after every recovery; the
+            classic part marks the spot it got stuck at and plans around it. 0: never.
     """
 
     lookahead_m: float = 1.0
     shield: bool = True
+    blind_memory_s: float = 4.0
+    fallback_after: int = 2
 
     def __post_init__(self) -> None:
         if not (isinstance(self.lookahead_m, (int, float)) and 0.1 <= self.lookahead_m <= 5.0):
             raise ValueError(f"HybridConfig.lookahead_m must be in [0.1, 5] m, got {self.lookahead_m!r}")
         if not isinstance(self.shield, bool):
             raise ValueError(f"HybridConfig.shield must be true or false, got {self.shield!r}")
+        if not (isinstance(self.blind_memory_s, (int, float)) and 0.0 <= self.blind_memory_s <= 10.0):
+            raise ValueError(f"HybridConfig.blind_memory_s must be in [0, 10] s, got {self.blind_memory_s!r}")
+        if not (isinstance(self.fallback_after, int) and not isinstance(self.fallback_after, bool)) or not (
+            0 <= self.fallback_after <= 100
+        ):
+            raise ValueError(f"HybridConfig.fallback_after must be an integer in [0, 100], got {self.fallback_after!r}")
 
 
 def waypoint_along(here: FloatArray, path: list[FloatArray], lookahead_m: float) -> FloatArray:
@@ -135,14 +157,60 @@ class HybridAgent(HospitalAgent):
         self._near = np.zeros((0, 2))
         self.command = (0.0, 0.0, 0.0)
         self.waypoint: FloatArray | None = None
+        self._glimpses: deque[tuple[int, FloatArray]] = deque()  # (step, near end points in the odometry frame)
+        self._leg = 0  # the cabinet the recoveries below were counted for
+        self._recoveries = 0  # recoveries the policy's driving ended in on this leg
+        self._drove = False  # the policy drove the last step
+
+    def _go(self, state: State) -> None:
+        if state is State.RECOVER and self.state is State.NAVIGATE and getattr(self, "_drove", False):
+            self._recoveries += 1
+        super()._go(state)
+
+    @property
+    def classic_leg(self) -> bool:
+        """Whether the classic part drives the rest of this leg (`HybridConfig.fallback_after`)."""
+        n = self.hybrid.fallback_after
+        return n > 0 and self._recoveries >= n
+
+    # --- the shield's short memory of the blind sector ---------------------------------------------
+    def _sense(self, obs: dict[str, np.ndarray]) -> FloatArray:
+        near = super()._sense(obs)
+        if self.hybrid.blind_memory_s > 0.0:
+            pts = self._scan_robot[::5]
+            pts = pts[np.hypot(pts[:, 0], pts[:, 1]) < 1.2]
+            o = self._odom
+            c, s = math.cos(o.theta), math.sin(o.theta)
+            odom_frame = np.column_stack([o.x + c * pts[:, 0] - s * pts[:, 1], o.y + s * pts[:, 0] + c * pts[:, 1]])
+            self._glimpses.append((self.steps, odom_frame))
+            keep = self._steps(self.hybrid.blind_memory_s)
+            while self.steps - self._glimpses[0][0] >= keep:
+                self._glimpses.popleft()
+        return near
+
+    def _remembered(self) -> FloatArray:
+        """The classic part's memory (the map's walls, the evidence) and the recent scans' end
+        points, robot frame, within 1.2 m (the caller keeps those in the blind sector)."""
+        remembered = super()._remembered()
+        if not self._glimpses:
+            return remembered
+        o = self._odom
+        d = np.vstack([g for _, g in self._glimpses]) - np.array([o.x, o.y])
+        d = d[(np.abs(d[:, 0]) < 1.2) & (np.abs(d[:, 1]) < 1.2)]
+        c, s = math.cos(o.theta), math.sin(o.theta)
+        recent = np.column_stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]])
+        return np.vstack([remembered, recent])
 
     # --- the seams the training wrapper drives ----------------------------------------------------
     def observe(self, obs: dict[str, np.ndarray]) -> bool:
         """Take in an observation and run the classic part (its command is `self.command`);
         True when the policy is to drive this step (the classic part is navigating a route)."""
         self._near = self._sense(obs)
+        if self.done != self._leg:
+            self._leg, self._recoveries = self.done, 0
         self.command = self._decide(self._near)
-        driving = self.state is State.NAVIGATE and bool(self.path)
+        driving = self.state is State.NAVIGATE and bool(self.path) and not self.classic_leg
+        self._drove = driving
         if driving:
             here = np.array([self.pose.x, self.pose.y])
             self.waypoint = waypoint_along(here, self.path, self.hybrid.lookahead_m)
@@ -185,7 +253,8 @@ class HybridAgent(HospitalAgent):
 
     def overlay(self) -> Overlay:
         base = super().overlay()
-        driving = "policy" if self.state is State.NAVIGATE and self.actor is not None else "classic"
+        policy = self.state is State.NAVIGATE and self.actor is not None and not self.classic_leg
+        driving = "policy" if policy else "classic"
         target = self.waypoint if self.state is State.NAVIGATE and self.waypoint is not None else base.target
         return Overlay(
             frame=base.frame,

@@ -21,16 +21,16 @@ LEARNING = LearningConfig(n_sectors=64, frame_stack=2, memory_sectors=36, range_
 QUIET = {"map": "hospital_2019", "closed_doors": (0, 0), "n_boxes": (0, 0), "n_movers": (0, 0)}
 
 
-def _policy_file(tmp_path, env: gym.Env, scale: float = 0.0):  # type: ignore[no-untyped-def]
-    """A policy file of the hybrid's input size: zero weights (it always drives straight ahead at
-    the middle of the action range, i.e. stands still) unless `scale`."""
+def _policy_file(tmp_path, env: gym.Env, scale: float = 0.0, bias=(0.0, 0.0, 0.0)):  # type: ignore[no-untyped-def]
+    """A policy file of the hybrid's input size: zero weights (it always gives `bias`, in [-1, 1]
+    action units: by default the middle of the action range, i.e. it stands still) unless `scale`."""
     spec = RobotSpec.of(env)
     n = LearningEncoder(spec.lrf, spec.robot, spec.dt_s, LEARNING).space.shape[0]
     rng = np.random.default_rng(0)
     w1, w2 = scale * rng.standard_normal((16, n)), scale * rng.standard_normal((3, 16))
     actor = MlpActor(
         (w1.astype(np.float32), w2.astype(np.float32)),
-        (np.zeros(16, np.float32), np.zeros(3, np.float32)),
+        (np.zeros(16, np.float32), np.asarray(bias, np.float32)),
         "tanh",
         np.zeros(3, np.float32),
         -np.ones(3, np.float32),
@@ -108,3 +108,61 @@ def test_the_goal_is_reached_once_every_cabinet_is_done() -> None:
     agent.reset(obs, {"task": info["task"]})
     agent.done = len(agent.order)
     assert agent.goal().tolist() == [0.0, 0.0, 1.0, 0.0, 1.0]
+
+
+def test_hybrid_config_refuses_a_bad_blind_memory() -> None:
+    with pytest.raises(ValueError, match="blind_memory_s"):
+        HybridConfig(blind_memory_s=-1.0)
+
+
+def test_the_shield_remembers_what_the_lrf_saw_before_it_turned_into_the_blind_sector() -> None:
+    """A point seen at +100 deg is behind the robot (+160 deg) after a 60 deg turn on the spot:
+    the shield keeps it (in the odometry frame) for `blind_memory_s`, then forgets it."""
+    env = gym.make("PicoHospital-v0", **QUIET)
+    spec = RobotSpec.of(env)
+    obs, info = env.reset(seed=1)
+    angles = spec.beam_angles
+    empty = np.full(len(angles), spec.lrf.range_max_m, np.float32)
+    one = empty.copy()
+    one[int(np.argmin(np.abs(angles - np.radians(100.0))))] = 0.5
+    odom = np.asarray(obs["odom"], np.float64)
+    turned = {"lrf": empty, "odom": (odom - [0.0, 0.0, np.radians(60.0)]).astype(np.float32)}
+    behind = 0.5 * np.array([np.cos(np.radians(160.0)), np.sin(np.radians(160.0))])
+
+    def remembers(agent: HybridAgent) -> bool:
+        return bool((np.hypot(*(agent._remembered() - behind).T) < 0.01).any())
+
+    seen = {}
+    for memory in (0.0, 4.0):
+        agent = HybridAgent(spec, driver=True, hybrid=HybridConfig(blind_memory_s=memory))
+        agent.reset(obs, {"task": info["task"]})
+        agent._sense({"lrf": one, "odom": odom.astype(np.float32)})
+        agent._sense(turned)
+        seen[memory] = remembers(agent)
+        if memory:
+            for _ in range(40):  # 4 s more
+                agent._sense(turned)
+            assert not remembers(agent)
+    assert seen == {0.0: False, 4.0: True}
+
+
+def test_the_classic_part_drives_the_rest_of_a_leg_the_policy_got_stuck_on(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """A policy that only ever drives sideways at full speed ends against a wall, the shield stops
+    it, and the never-stand-still rule recovers; after `fallback_after` such recoveries on a leg
+    the classic part drives (and gets the robot somewhere)."""
+    env = gym.make("PicoHospital-v0", **QUIET)
+    path = _policy_file(tmp_path, env, bias=(0.0, 1.0, 0.0))
+    for fallback_after, classic_drives in ((2, True), (0, False)):
+        agent = make_agent("hybrid", env, path=path, hybrid=HybridConfig(fallback_after=fallback_after))
+        obs, info = env.reset(seed=2)
+        agent.reset(obs, info)
+        recoveries, classic_navigating = 0, 0
+        for _ in range(1500):
+            state = agent.state
+            obs, _, terminated, truncated, info = env.step(agent.act(obs))
+            recoveries += state is not State.RECOVER and agent.state is State.RECOVER
+            classic_navigating += agent.state is State.NAVIGATE and agent.classic_leg
+            if terminated or truncated or classic_navigating >= 20:
+                break
+        assert recoveries >= 2
+        assert (classic_navigating >= 20) is classic_drives
