@@ -21,8 +21,6 @@ drives (`observe` / `policy_input` / `finish` are the seams the training wrapper
 
 from __future__ import annotations
 
-import math
-from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -31,6 +29,7 @@ import numpy as np
 
 from pico_gym.agents.base import RobotSpec
 from pico_gym.agents.classic.hospital import HospitalAgent, HospitalAgentConfig, State
+from pico_gym.agents.shield import ScanMemory
 from pico_gym.overlay import Overlay
 from pico_gym.types import FloatArray
 from pico_gym.wrappers import LearningConfig, LearningEncoder, encode_goal, rescale_action, unit_action
@@ -157,7 +156,7 @@ class HybridAgent(HospitalAgent):
         self._near = np.zeros((0, 2))
         self.command = (0.0, 0.0, 0.0)
         self.waypoint: FloatArray | None = None
-        self._glimpses: deque[tuple[int, FloatArray]] = deque()  # (step, near end points in the odometry frame)
+        self._memory = ScanMemory(self.hybrid.blind_memory_s, self.spec.dt_s, self.motion.visible_bearing)
         self._leg = 0  # the cabinet the recoveries below were counted for
         self._recoveries = 0  # recoveries the policy's driving ended in on this leg
         self._drove = False  # the policy drove the last step
@@ -176,30 +175,13 @@ class HybridAgent(HospitalAgent):
     # --- the shield's short memory of the blind sector ---------------------------------------------
     def _sense(self, obs: dict[str, np.ndarray]) -> FloatArray:
         near = super()._sense(obs)
-        if self.hybrid.blind_memory_s > 0.0:
-            pts = self._scan_robot[::5]
-            pts = pts[np.hypot(pts[:, 0], pts[:, 1]) < 1.2]
-            o = self._odom
-            c, s = math.cos(o.theta), math.sin(o.theta)
-            odom_frame = np.column_stack([o.x + c * pts[:, 0] - s * pts[:, 1], o.y + s * pts[:, 0] + c * pts[:, 1]])
-            self._glimpses.append((self.steps, odom_frame))
-            keep = self._steps(self.hybrid.blind_memory_s)
-            while self.steps - self._glimpses[0][0] >= keep:
-                self._glimpses.popleft()
+        self._memory.add(self._scan_robot, self._odom)
         return near
 
     def _remembered(self) -> FloatArray:
-        """The classic part's memory (the map's walls, the evidence) and the recent scans' end
-        points, robot frame, within 1.2 m (the caller keeps those in the blind sector)."""
-        remembered = super()._remembered()
-        if not self._glimpses:
-            return remembered
-        o = self._odom
-        d = np.vstack([g for _, g in self._glimpses]) - np.array([o.x, o.y])
-        d = d[(np.abs(d[:, 0]) < 1.2) & (np.abs(d[:, 1]) < 1.2)]
-        c, s = math.cos(o.theta), math.sin(o.theta)
-        recent = np.column_stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]])
-        return np.vstack([remembered, recent])
+        """The classic part's memory (the map's walls, the evidence) and the last scans' near end
+        points, robot frame (the caller keeps those in the blind sector)."""
+        return np.vstack([super()._remembered(), self._memory.recent(self._odom)])
 
     # --- the seams the training wrapper drives ----------------------------------------------------
     def observe(self, obs: dict[str, np.ndarray]) -> bool:
