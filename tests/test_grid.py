@@ -113,3 +113,38 @@ def test_dijkstra_equals_a_heapq_search_bit_for_bit(heap_room: int | None) -> No
     expected = _dijkstra_heapq(costs.cost, costs.knight_ok, seeds, grid.resolution)
     assert np.isfinite(expected).sum() > 500  # the search reached round the inner walls
     assert np.array_equal(got, expected)
+
+
+def test_a_field_from_a_start_is_the_full_field_where_a_robot_can_be_before_the_line() -> None:
+    """Escape rooms: the field searched from the start equals the whole field bit for bit on
+    every cell it computes, leaves the outside of the building (reached only across the line)
+    uncomputed, and gives the same lookups along the way to the exit."""
+    import gymnasium as gym
+
+    import pico_gym  # noqa: F401
+
+    env = gym.make("PicoEscape-v0", n_obstacles=2).unwrapped
+    for seed in range(4):
+        env.reset(seed=seed)
+        task, world, start = env.task, env.episode.scene.map, env.episode.start
+        grid = Grid.covering(world.bounds, task.config.geodesic_resolution_m, margin=1.0)
+        side = tuple(float(v) for v in task._finish_point - task._finish_normal)
+        full = geodesic_field(grid, world.solid_segments(), world.finish, side)
+        part = geodesic_field(grid, world.solid_segments(), world.finish, side, start=(start.x, start.y))
+        computed = np.isfinite(part.distance)
+        assert np.array_equal(part.distance[computed], full.distance[computed])
+        assert computed.sum() < 0.8 * np.isfinite(full.distance).sum()  # the outside margin is left out
+        assert math.isinf(part.distance[0, 0]) and math.isfinite(full.distance[0, 0])  # a corner outside
+        assert part.lookup(start.x, start.y) == full.lookup(start.x, start.y)
+        rng = np.random.default_rng(seed)
+        xmin, ymin, xmax, ymax = world.bounds
+        checked = 0
+        for x, y in rng.uniform((xmin, ymin), (xmax, ymax), size=(300, 2)):
+            c, r = (
+                int(math.floor((x - grid.x0) / grid.resolution - 0.5)),
+                int(math.floor((y - grid.y0) / grid.resolution - 0.5)),
+            )
+            if computed[r : r + 2, c : c + 2].all():  # a point a robot from the start can be at
+                assert part.lookup(x, y) == full.lookup(x, y)
+                checked += 1
+        assert checked > 30

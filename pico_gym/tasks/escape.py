@@ -212,7 +212,9 @@ class EscapeTask(ConfiguredTask):
             if start is None:
                 fixed = world.start_pose is not None and not self.config.sample_start
                 start = world.start_pose if fixed else self._sample_fixed_start(world, rng)
-        field = self._field(world)
+        # A drawn room's field covers only what the robot can reach before the line (a fixed
+        # map's, kept for every episode, covers the whole map).
+        field = self._field(world, None if world is self.fixed_map else (start.x, start.y))
         if self._centre_past_line(start):
             raise ValueError(f"options['start_pose'] {tuple(start)} is past the finish line")
         # The oracle path: the origin's geodesic to the line, plus the footprint's rear half so
@@ -266,12 +268,15 @@ class EscapeTask(ConfiguredTask):
             return "is inside an obstacle or has no path to the finish line for the robot's footprint"
         return None
 
-    def _field(self, world: Map) -> GeodesicField:
+    def _field(self, world: Map, start: tuple[float, float] | None = None) -> GeodesicField:
+        """The geodesic field to the finish line (with `start`: only where a robot from there can be)."""
         if self._field_cache is not None and self._field_cache[0] is world:
             return self._field_cache[1]
         grid = Grid.covering(world.bounds, self.config.geodesic_resolution_m, margin=1.0)
         side = self._finish_point - self._finish_normal
-        field = geodesic_field(grid, world.solid_segments(), world.finish, (float(side[0]), float(side[1])))
+        field = geodesic_field(
+            grid, world.solid_segments(), world.finish, (float(side[0]), float(side[1])), start=start
+        )
         if world is self.fixed_map:
             self._field_cache = (world, field)
         return field

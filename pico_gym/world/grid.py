@@ -113,17 +113,23 @@ def _dijkstra(
     res: float,
     window: tuple[int, int, int, int] = (0, -1, 0, -1),
     heap_room: int | None = None,
+    allowed: np.ndarray | None = None,
 ) -> FloatArray:
     """Dijkstra over the cells (16 moves: 4 straight, 4 diagonal, 8 knight).
 
     `window` (r0, r1, c0, c1), inclusive, non-empty: stop as soon as every free cell in it is
     settled. Only those cells then hold their final distances (the rest may be unsettled).
 
+    `allowed` (bool, the grid's shape): the search enters only these cells (the rest stay `inf`);
+    default: every free cell.
+
     The heap has room for as many entries as there are cells (plus the seeds) unless `heap_room`
     says otherwise; a search that needs more starts over with twice the room."""
     room = cost.size + len(seeds_r) if heap_room is None else heap_room
+    if allowed is None:
+        allowed = np.isfinite(cost)
     while True:
-        dist, done = _dijkstra_run(cost, knight_ok, seeds_r, seeds_c, seeds_v, res, window, max(1, room))
+        dist, done = _dijkstra_run(cost, knight_ok, allowed, seeds_r, seeds_c, seeds_v, res, window, max(1, room))
         if done:
             return dist
         room *= 2
@@ -133,6 +139,7 @@ def _dijkstra(
 def _dijkstra_run(
     cost: FloatArray,
     knight_ok: np.ndarray,
+    allowed: np.ndarray,
     seeds_r: np.ndarray,
     seeds_c: np.ndarray,
     seeds_v: FloatArray,
@@ -152,7 +159,7 @@ def _dijkstra_run(
     waiting = 0  # free cells of the window not settled yet
     for r in range(wr0, wr1 + 1):
         for c in range(wc0, wc1 + 1):
-            if free[r, c]:
+            if free[r, c] and allowed[r, c]:
                 waiting += 1
     stop_early = waiting > 0
     n_moves = _MOVES.shape[0]
@@ -166,7 +173,7 @@ def _dijkstra_run(
     size = 0
     for i in range(seeds_r.shape[0]):
         r, c = seeds_r[i], seeds_c[i]
-        if free[r, c] and seeds_v[i] < dist[r, c]:
+        if free[r, c] and allowed[r, c] and seeds_v[i] < dist[r, c]:
             if size == room:
                 return dist, False
             dist[r, c] = seeds_v[i]
@@ -188,7 +195,7 @@ def _dijkstra_run(
             rr, cc = r + dr, c + dc
             if rr < 0 or rr >= rows or cc < 0 or cc >= cols:
                 continue
-            if not free[rr, cc]:
+            if not (free[rr, cc] and allowed[rr, cc]):
                 continue
             if m >= 8 and not (knight_here and knight_ok[rr, cc]):
                 continue
@@ -454,6 +461,42 @@ def _inside_convex(xs: FloatArray, ys: FloatArray, polygon: FloatArray) -> np.nd
     return inside_ccw | inside_cw
 
 
+@njit
+def _before_the_line(
+    free: np.ndarray, knight_ok: np.ndarray, seed: np.ndarray, starts_r: np.ndarray, starts_c: np.ndarray
+) -> np.ndarray:
+    """The cells the field's moves reach from the start cells without passing through a seed
+    cell (the seeds themselves included): where a robot can be before it crosses the line."""
+    rows, cols = free.shape
+    reached = np.zeros((rows, cols), dtype=np.bool_)
+    stack = np.empty(rows * cols, dtype=np.int64)
+    top = 0
+    for i in range(starts_r.shape[0]):
+        r, c = starts_r[i], starts_c[i]
+        if 0 <= r < rows and 0 <= c < cols and free[r, c] and not reached[r, c]:
+            reached[r, c] = True
+            stack[top] = r * cols + c
+            top += 1
+    while top > 0:
+        top -= 1
+        r, c = stack[top] // cols, stack[top] % cols
+        if seed[r, c]:
+            continue  # past the line: where the robot's run ends
+        for m in range(_MOVES.shape[0]):
+            dr, dc = _MOVES[m, 0], _MOVES[m, 1]
+            rr, cc = r + dr, c + dc
+            if rr < 0 or rr >= rows or cc < 0 or cc >= cols or reached[rr, cc] or not free[rr, cc]:
+                continue
+            if m >= 8 and not (knight_ok[r, c] and knight_ok[rr, cc]):
+                continue
+            if m >= 4 and m < 8 and not (free[r + dr, c] and free[r, c + dc]):
+                continue
+            reached[rr, cc] = True
+            stack[top] = rr * cols + cc
+            top += 1
+    return reached
+
+
 def geodesic_field(
     grid: Grid,
     segments: Segments,
@@ -461,6 +504,7 @@ def geodesic_field(
     start_side: tuple[float, float],
     comfort_clearance_m: float = 0.1,
     near_wall_cost: float = 3.0,
+    start: tuple[float, float] | None = None,
 ) -> GeodesicField:
     """Geodesic distance of every cell to a goal line.
 
@@ -471,6 +515,13 @@ def geodesic_field(
         start_side: a point on the side of the line the robot comes from.
         comfort_clearance_m: cells closer to a wall than this cost `near_wall_cost` times more.
         near_wall_cost: cost factor of cells within the comfort clearance.
+        start: the robot's start, if known: the search then covers only the cells a robot can be
+            in before it crosses the line from there (and the cells past the line, which hold
+            the start values), and every other cell holds `inf`. Where it computes, the field
+            is the full field bit for bit: a path through the cells it leaves out (around a
+            building's outside, from the exit) enters again only across the line, where the
+            cells past it start lower. On an escape room that saves the outside margin, about
+            40 % of the cells.
 
     Returns:
         The field; cells beyond the line hold minus their distance past it.
@@ -491,4 +542,17 @@ def geodesic_field(
     past = (across >= -0.5 * res) & (along >= -res) & (along <= length + res)
     seeds_r, seeds_c = np.nonzero(past & np.isfinite(costs.cost))
     seeds_v = -np.maximum(across[seeds_r, seeds_c], 0.0)
-    return costs.field_from(seeds_r, seeds_c, seeds_v)
+    if start is None:
+        return costs.field_from(seeds_r, seeds_c, seeds_v)
+    # Every cell a lookup at the start may read (as `CostGrid.distance_at`'s window).
+    c0 = int(math.floor((start[0] - grid.x0) / res - 0.5))
+    r0 = int(math.floor((start[1] - grid.y0) / res - 0.5))
+    near_r, near_c = np.mgrid[r0 - 2 : r0 + 4, c0 - 2 : c0 + 4]
+    free = np.isfinite(costs.cost)
+    seed = np.zeros(free.shape, dtype=np.bool_)
+    seed[seeds_r, seeds_c] = True
+    allowed = _before_the_line(free, costs.knight_ok, seed, near_r.ravel(), near_c.ravel()) | seed
+    distance = _dijkstra(
+        costs.cost, costs.knight_ok, seeds_r.astype(np.int64), seeds_c.astype(np.int64), seeds_v, res, allowed=allowed
+    )
+    return GeodesicField(grid, distance)
