@@ -520,8 +520,8 @@ def geodesic_field(
             the start values), and every other cell holds `inf`. Where it computes, the field
             is the full field bit for bit: a path through the cells it leaves out (around a
             building's outside, from the exit) enters again only across the line, where the
-            cells past it start lower. On an escape room that saves the outside margin, about
-            40 % of the cells.
+            cells past it start lower. On a drawn escape room that leaves out about 60 % of
+            the cells (the grid's margin and the bounding box's room beside the corridor).
 
     Returns:
         The field; cells beyond the line hold minus their distance past it.
