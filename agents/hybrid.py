@@ -156,7 +156,7 @@ class HybridAgent(HospitalAgent):
         self._near = np.zeros((0, 2))
         self.command = (0.0, 0.0, 0.0)
         self.waypoint: FloatArray | None = None
-        self._memory = ScanMemory(self.hybrid.blind_memory_s, self.spec.dt_s, self.motion.visible_bearing)
+        self._memory = ScanMemory(self.hybrid.blind_memory_s, self.spec.dt_s)
         self._leg = 0  # the cabinet the recoveries below were counted for
         self._recoveries = 0  # recoveries the policy's driving ended in on this leg
         self._drove = False  # the policy drove the last step

@@ -1,11 +1,12 @@
 """What a learned agent's shield keeps the footprint off: the scan, and a short memory of it.
 
-A policy's command passes the classic safety filter (`pico_gym.agents.classic.potential_field.
-safety_filter`) before it reaches the robot: the footprint is kept off the points the filter is
-given. The LRF sees about 230 degrees; behind the robot it is blind, and a robot that turns while
-it drives sideways swings its rear into what it saw a moment ago and sees no more.
-`ScanMemory` keeps the scans' near end points of the last seconds in the odometry frame (drift
-over a few seconds is millimetres) and hands back those now in the blind sector.
+The hybrid agent's policy (`pico_gym.agents.hybrid`) commands pass the classic safety filter
+(`pico_gym.agents.classic.potential_field.safety_filter`) before they reach the robot: the
+footprint is kept off the points the filter is given. The LRF sees about 230 degrees; behind the
+robot it is blind, and a robot that turns while it drives sideways swings its rear into what it
+saw a moment ago and sees no more. `ScanMemory` keeps the scans' near end points of the last
+seconds in the odometry frame (drift over a few seconds is millimetres) and hands them back in
+the robot's frame; the filter takes those in its blind sector.
 """
 
 from __future__ import annotations
@@ -27,15 +28,13 @@ class ScanMemory:
     Args:
         seconds: how long a point is kept.
         dt_s: the control period (one scan per step).
-        blind_bearing_rad: points at a bearing beyond this (either side) are in the blind sector.
         stride: keep every `stride`-th end point (1,000 beams: 2 cm apart at 1 m with 5).
     """
 
-    def __init__(self, seconds: float, dt_s: float, blind_bearing_rad: float, stride: int = 5) -> None:
+    def __init__(self, seconds: float, dt_s: float, stride: int = 5) -> None:
         if not (math.isfinite(seconds) and seconds >= 0.0):
             raise ValueError(f"ScanMemory seconds must be >= 0, got {seconds!r}")
         self.steps = int(round(seconds / dt_s))
-        self.blind_bearing_rad = blind_bearing_rad
         self.stride = stride
         self._scans: deque[FloatArray] = deque(maxlen=max(self.steps, 1))
 
@@ -61,8 +60,3 @@ class ScanMemory:
         d = d[(np.abs(d[:, 0]) < REACH_M) & (np.abs(d[:, 1]) < REACH_M)]
         c, s = math.cos(odom.theta), math.sin(odom.theta)
         return np.column_stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]])
-
-    def behind(self, odom: Pose) -> FloatArray:
-        """`recent` in the blind sector only."""
-        pts = self.recent(odom)
-        return pts[np.abs(np.arctan2(pts[:, 1], pts[:, 0])) > self.blind_bearing_rad]
