@@ -377,8 +377,11 @@ class CostGrid:
         knight_ok = clearance > max(0.5 * math.sqrt(5.0) * res + 1e-9, inflation_m)
         return CostGrid(grid, cost, knight_ok)
 
-    def field_from(self, seeds_r: np.ndarray, seeds_c: np.ndarray, seeds_v: FloatArray) -> GeodesicField:
-        """The shortest-path distance from seed cells (with their initial values) to every cell."""
+    def field_from(
+        self, seeds_r: np.ndarray, seeds_c: np.ndarray, seeds_v: FloatArray, allowed: np.ndarray | None = None
+    ) -> GeodesicField:
+        """The shortest-path distance from seed cells (with their initial values) to every cell
+        (with `allowed`: to those cells only; the rest hold `inf`)."""
         distance = _dijkstra(
             self.cost,
             self.knight_ok,
@@ -386,6 +389,7 @@ class CostGrid:
             seeds_c.astype(np.int64),
             np.asarray(seeds_v, dtype=np.float64),
             self.grid.resolution,
+            allowed=allowed,
         )
         return GeodesicField(self.grid, distance)
 
@@ -482,7 +486,7 @@ def _before_the_line(
         r, c = stack[top] // cols, stack[top] % cols
         if seed[r, c]:
             continue  # past the line: where the robot's run ends
-        for m in range(_MOVES.shape[0]):
+        for m in range(_MOVES.shape[0]):  # the moves and rules of `_dijkstra_run`
             dr, dc = _MOVES[m, 0], _MOVES[m, 1]
             rr, cc = r + dr, c + dc
             if rr < 0 or rr >= rows or cc < 0 or cc >= cols or reached[rr, cc] or not free[rr, cc]:
@@ -552,7 +556,4 @@ def geodesic_field(
     seed = np.zeros(free.shape, dtype=np.bool_)
     seed[seeds_r, seeds_c] = True
     allowed = _before_the_line(free, costs.knight_ok, seed, near_r.ravel(), near_c.ravel()) | seed
-    distance = _dijkstra(
-        costs.cost, costs.knight_ok, seeds_r.astype(np.int64), seeds_c.astype(np.int64), seeds_v, res, allowed=allowed
-    )
-    return GeodesicField(grid, distance)
+    return costs.field_from(seeds_r, seeds_c, seeds_v, allowed)
