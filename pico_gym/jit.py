@@ -38,9 +38,13 @@ except ImportError:  # pragma: no cover - depends on the numba version
     _UserCache = None  # type: ignore[assignment,misc]
 
 
-def njit(function: F) -> F:
-    """Compile `function` with `numba.njit`, caching the machine code in the user cache directory."""
-    dispatcher = numba.njit(cache=False)(function)
+def njit(function: F | None = None, **options: Any) -> Any:
+    """Compile `function` with `numba.njit`, caching the machine code in the user cache directory.
+
+    Used bare (`@njit`) or with numba's options (`@njit(fastmath={"contract"})`)."""
+    if function is None:
+        return lambda f: njit(f, **options)
+    dispatcher = numba.njit(cache=False, **options)(function)
     if _UserCache is not None:
         try:
             dispatcher._cache = _UserCache(function)

@@ -26,8 +26,9 @@ import numpy as np
 import pymunk
 
 from pico_gym.jit import njit
+from pico_gym.pymath import hypot
 from pico_gym.robot import RobotConfig
-from pico_gym.sensors.odometry import integrate_twist
+from pico_gym.sensors.odometry import integrate
 from pico_gym.types import Pose, Segments
 from pico_gym.validate import flag, number
 from pico_gym.world.geometry import footprint_clearance
@@ -40,6 +41,25 @@ _ROBOT = 1
 _TOUCH_M = 1e-6  # the true footprint closer than this to static geometry counts as touching it
 _CAP_TOLERANCE = 1e-9
 _KIND_BASE = 2  # collision type of kind k is _KIND_BASE + k
+
+
+@njit
+def sweep(vx: float, vy: float, w: float, duration_s: float, circumradius_m: float) -> float:
+    """An upper bound on how far any point of a footprint of that circumradius moves with this
+    twist [m] (`Physics.sweep_m`, compiled for the step's kernel)."""
+    return (hypot(vx, vy) + abs(w) * circumradius_m) * duration_s
+
+
+@njit
+def glide(
+    x: float, y: float, angle: float, vx: float, vy: float, w: float, duration_s: float
+) -> tuple[float, float, float, float, float]:
+    """A glide (no contact): the body's position and unwrapped angle after `duration_s` with the
+    body-frame twist, and its map-frame velocity then, as the sub-steps would leave them."""
+    x, y, _ = integrate(x, y, angle, vx, vy, w, duration_s)
+    angle = angle + w * duration_s  # keep the body's unwrapped angle continuous
+    c, s = math.cos(angle), math.sin(angle)
+    return x, y, angle, c * vx - s * vy, s * vx + c * vy
 
 
 @njit
@@ -328,7 +348,7 @@ class Physics:
 
     def sweep_m(self, vx: float, vy: float, w: float, duration_s: float) -> float:
         """An upper bound on how far any point of the footprint moves with this twist [m]."""
-        return (math.hypot(vx, vy) + abs(w) * self._circumradius_m) * duration_s
+        return sweep(vx, vy, w, duration_s, self._circumradius_m)
 
     def step(self, vx: float, vy: float, w: float, duration_s: float, clearance_m: float = 0.0) -> None:
         """Drive with a body-frame twist for `duration_s` (a whole number of sub-steps).
@@ -449,12 +469,26 @@ class Physics:
         The new state is kept here and written into pymunk only when pymunk steps again (one
         write after any number of glides instead of one per step)."""
         x, y, a = self._xya()
-        pose = integrate_twist(Pose(x, y, a), vx, vy, w, duration_s)
-        angle = a + w * duration_s  # keep the body's unwrapped angle continuous
-        c, s = math.cos(angle), math.sin(angle)
-        velocity = (c * vx - s * vy, s * vx + c * vy)
-        self._pending = (pose.x, pose.y, angle, velocity, w)
+        x, y, angle, velocity_x, velocity_y = glide(x, y, a, vx, vy, w, duration_s)
+        self.glided(x, y, angle, velocity_x, velocity_y, w, duration_s)
+
+    def glided(self, x: float, y: float, angle: float, vx: float, vy: float, w: float, duration_s: float) -> None:
+        """Take a glide computed elsewhere (by `glide`, in the step's kernel): the body's new
+        position, unwrapped angle and map-frame velocity, its angular velocity, the time it took."""
+        self._pending = (x, y, angle, (vx, vy), w)
         self.time_s += duration_s
+
+    def glide_inputs(self) -> tuple[float, float, float, bool]:
+        """What the step's kernel needs to glide: the body's position and unwrapped angle, and
+        whether a glide may be taken at all now (the shortcut is on and nothing touches)."""
+        x, y, a = self._xya()
+        return x, y, a, self._may_glide and self.contacts == 0 and not self._mover_bodies
+
+    def glide_constants(self, duration_s: float) -> tuple[float, float, float]:
+        """(circumradius, margin, glide time) of a step of `duration_s`: what `step` tests the room
+        against (`sweep` plus the margin) and how long the sub-steps it glides through take."""
+        h = self.config.substep_s
+        return self._circumradius_m, self._glide_margin, max(1, round(duration_s / h)) * h
 
     def _xya(self) -> tuple[float, float, float]:
         """The body's position and unwrapped angle (a pending glide's, if any)."""

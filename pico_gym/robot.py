@@ -12,6 +12,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from pico_gym.jit import njit
+from pico_gym.pymath import hypot
 from pico_gym.types import FloatArray
 from pico_gym.validate import number
 
@@ -109,6 +111,41 @@ class RobotConfig:
 ACTION_NAMES = ("vx", "vy", "w")
 
 
+def checked_twist(action: np.ndarray) -> tuple[float, float, float]:
+    """The twist (vx, vy, w) of an action, as floats.
+
+    Raises:
+        ValueError: when the action has the wrong size or a component is NaN or infinite; the
+            message names the component.
+    """
+    if type(action) is np.ndarray and action.shape == (3,) and action.dtype.kind == "f":
+        vx, vy, w = action.tolist()  # the common case, without a conversion (float32 -> float exactly)
+    else:
+        a = np.asarray(action, dtype=np.float64)
+        if a.size != 3:
+            raise ValueError(f"action must have 3 components (vx, vy, w), got shape {np.shape(action)}")
+        vx, vy, w = a.ravel().tolist()
+    if not math.isfinite(vx + vy + w):  # a NaN or an infinity in any component (inf - inf is NaN)
+        for name, value in zip(ACTION_NAMES, (vx, vy, w), strict=True):
+            if not math.isfinite(value):
+                raise ValueError(f"action component {name} is {value}; actions must be finite")
+    return vx, vy, w
+
+
+@njit
+def clip_limits(vx: float, vy: float, w: float, vmax: float, wmax: float) -> tuple[float, float, float]:
+    """`clip_twist` of a finite twist, compiled (the step's kernel calls it)."""
+    vx = min(vmax, max(-vmax, vx))
+    vy = min(vmax, max(-vmax, vy))
+    w = min(wmax, max(-wmax, w))
+    speed = hypot(vx, vy)
+    if speed > vmax:
+        scale = vmax / speed
+        vx *= scale
+        vy *= scale
+    return vx, vy, w
+
+
 def clip_twist(action: np.ndarray, config: RobotConfig) -> tuple[float, float, float]:
     """Clip a commanded twist to the robot's limits.
 
@@ -122,24 +159,5 @@ def clip_twist(action: np.ndarray, config: RobotConfig) -> tuple[float, float, f
     >>> clip_twist(np.array([0.5, 0.5, 2.0]), RobotConfig())
     (0.35355339059327373, 0.35355339059327373, 1.2)
     """
-    if type(action) is np.ndarray and action.shape == (3,) and action.dtype.kind == "f":
-        vx, vy, w = action.tolist()  # the common case, without a conversion (float32 -> float exactly)
-    else:
-        a = np.asarray(action, dtype=np.float64)
-        if a.size != 3:
-            raise ValueError(f"action must have 3 components (vx, vy, w), got shape {np.shape(action)}")
-        vx, vy, w = a.ravel().tolist()
-    if not math.isfinite(vx + vy + w):  # a NaN or an infinity in any component (inf - inf is NaN)
-        for name, value in zip(ACTION_NAMES, (vx, vy, w), strict=True):
-            if not math.isfinite(value):
-                raise ValueError(f"action component {name} is {value}; actions must be finite")
-    vmax = config.max_speed_mps
-    vx = min(vmax, max(-vmax, vx))
-    vy = min(vmax, max(-vmax, vy))
-    w = min(config.max_turn_rate_radps, max(-config.max_turn_rate_radps, w))
-    speed = math.hypot(vx, vy)
-    if speed > vmax:
-        scale = vmax / speed
-        vx *= scale
-        vy *= scale
-    return vx, vy, w
+    vx, vy, w = checked_twist(action)
+    return clip_limits(vx, vy, w, config.max_speed_mps, config.max_turn_rate_radps)

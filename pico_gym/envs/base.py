@@ -20,16 +20,19 @@ import numpy as np
 
 from pico_gym.config import with_overrides
 from pico_gym.extras import require
+from pico_gym.jit import njit
 from pico_gym.overlay import Overlay
-from pico_gym.physics import Physics, PhysicsConfig, StaticShapePool
-from pico_gym.robot import RobotConfig, clip_twist
+from pico_gym.physics import Physics, PhysicsConfig, StaticShapePool, glide, sweep
+from pico_gym.pymath import TWO_PI, hypot, remainder
+from pico_gym.pymath import wrap_angle as compiled_wrap
+from pico_gym.robot import RobotConfig, checked_twist, clip_limits
 from pico_gym.sensors.lrf import Lrf, LrfConfig
-from pico_gym.sensors.odometry import Odometry, OdometryConfig
+from pico_gym.sensors.odometry import Odometry, OdometryConfig, ground_twist, integrate
 from pico_gym.tasks.base import BASE_OPTION_KEYS, Episode, IdleTimer, StepContext, Task, timed_out
-from pico_gym.types import Pose
+from pico_gym.types import FloatArray, Pose, Segments
 from pico_gym.validate import number
 from pico_gym.world import geometry
-from pico_gym.world.geometry import compose, inverse, wrap_angle
+from pico_gym.world.geometry import compose, footprint_clearance, inverse, wrap_angle
 from pico_gym.world.map import Map
 from pico_gym.world.scene import KINDS, Scene, SceneSnapshot
 
@@ -38,6 +41,40 @@ CLEARANCE_CAP_M = 2.0
 # info["cost"] (Safety Gym's convention): 1 per bump plus 1 per second closer than this to anything [m].
 COST_CLEARANCE_M = 0.1
 _NO_EXTRAS = np.zeros(0)
+
+
+_IDENTITY = np.eye(3)
+
+
+@njit
+def _drive(
+    vx: float, vy: float, w: float, vmax: float, wmax: float, ground: FloatArray, exact: bool, dt: float,
+    x0: float, y0: float, a0: float, may_glide: bool, room: float, circumradius: float, margin: float, glide_s: float,
+    odom_x: float, odom_y: float, odom_theta: float, px: float, py: float, ptheta: float,
+    outline: FloatArray, solid: Segments, cap: float,
+) -> tuple[bool, float, float, float, float, float, float, float, float, float,
+           float, float, float, float, float, float, float, float, float]:  # fmt: skip
+    """A step's motion up to the scan, compiled: the command clipped to the limits, the true twist
+    (`Odometry.ground`'s matrix, or the command itself when `exact`), odometry, and, when the
+    robot may glide (`Physics.step`'s free-space test on the same figures), the glide from the
+    body's (x0, y0, a0) with the new pose, how far it moved and turned from (px, py, ptheta), and
+    its footprint's clearance to `solid`. Without the glide the last ten values are zeros and the
+    physics steps the robot. Each part is the compiled twin of the Python it replaces, to the bit."""
+    vx, vy, w = clip_limits(vx, vy, w, vmax, wmax)
+    if exact:
+        tvx, tvy, tw = vx, vy, w
+    else:
+        tvx, tvy, tw = ground_twist(ground, vx, vy, w)
+    ox, oy, otheta = integrate(odom_x, odom_y, odom_theta, vx, vy, w, dt)
+    if not (may_glide and room > sweep(tvx, tvy, tw, dt, circumradius) + margin):
+        return False, vx, vy, w, tvx, tvy, tw, ox, oy, otheta, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    x, y, angle, velocity_x, velocity_y = glide(x0, y0, a0, tvx, tvy, tw, glide_s)
+    theta = remainder(angle, TWO_PI)
+    moved = hypot(x - px, y - py)
+    turned = abs(compiled_wrap(theta - ptheta))
+    clearance = footprint_clearance(x, y, theta, outline, solid, cap)
+    glided = (x, y, angle, velocity_x, velocity_y, theta, moved, turned, clearance)
+    return True, vx, vy, w, tvx, tvy, tw, ox, oy, otheta, *glided
 
 
 class _Moved(NamedTuple):
@@ -143,6 +180,7 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
             dtype=np.float32,
         )
         self._outline = np.ascontiguousarray(config.robot.outline)
+        self._limits = (config.robot.max_speed_mps, config.robot.max_turn_rate_radps)
         self._renderer: Any = None
         self._overlay: Overlay | Callable[[], Overlay] | None = None
         self._idle = IdleTimer(task.idle_rule)
@@ -194,6 +232,7 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         if self.physics is not None:
             self.physics.release()  # its static shapes, for this episode's physics
         self.physics = Physics.from_scene(scene, self.config.robot, self.config.physics, ep.start, self._shape_pool)
+        self._glide = self.physics.glide_constants(self.config.dt_s)
         self._excused = [0] * len(KINDS)  # contacts the task's rules excused, by kind
         self._n_excused = 0
         odom0 = self.odometry.reset(self.np_random)
@@ -236,28 +275,42 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
             raise RuntimeError("call reset() before step()")
         if self._finished:
             raise RuntimeError("this episode has ended (terminated or truncated): call reset() before step()")
-        cfg = self.config
-        dt = cfg.dt_s
+        dt = self.config.dt_s
         twist, extras = self._split_action(action)
-        vx, vy, w = clip_twist(twist, cfg.robot)
-        physics = self.physics
+        vx, vy, w = checked_twist(twist)
+        physics, odometry = self.physics, self.odometry
         bumps_before = physics.bumps
-        true_vx, true_vy, true_w = self.odometry.true_twist(vx, vy, w, dt, self.np_random)
-        # Movers may close in during the step: the free-space shortcut needs room for that too.
-        physics.step(true_vx, true_vy, true_w, dt, self._room)
-        self.odometry.advance(vx, vy, w, dt)
-        previous, pose = self._pose, physics.pose
+        ground = odometry.ground(dt, self.np_random)
+        x0, y0, a0, may_glide = physics.glide_inputs()
+        previous = self._pose
+        # Clip, the true twist, odometry and (when nothing can be touched) the glide with the new
+        # pose's motion and clearance, in one compiled call.
+        (free, vx, vy, w, true_vx, true_vy, true_w, odom_x, odom_y, odom_theta,
+         x, y, angle, velocity_x, velocity_y, theta, moved, turned, clearance) = _drive(
+            vx, vy, w, *self._limits, _IDENTITY if ground is None else ground, ground is None, dt,
+            x0, y0, a0, may_glide, self._room, *self._glide, *odometry.pose, *previous,
+            self._outline, self._solid, CLEARANCE_CAP_M,
+        )  # fmt: skip
+        odometry.pose = Pose(odom_x, odom_y, odom_theta)
+        if free:
+            physics.glided(x, y, angle, velocity_x, velocity_y, true_w, self._glide[2])
+            pose = Pose(x, y, theta)
+            self._room = clearance  # (no movers: the glide's inputs say so)
+        else:
+            # Movers, a possible contact, or the shortcut off: the physics steps it.
+            physics.step(true_vx, true_vy, true_w, dt, self._room)
+            pose = physics.pose
+            moved = math.hypot(pose.x - previous.x, pose.y - previous.y)
+            turned = abs(wrap_angle(pose.theta - previous.theta))
+            clearance = self._footprint_clearance(pose)
         self._pose = pose
         self.steps += 1
         self.sim_time_s = self.steps * dt
-
-        moved = math.hypot(pose.x - previous.x, pose.y - previous.y)
-        turned = abs(wrap_angle(pose.theta - previous.theta))
         self._path_length += moved
         idle_s = self._idle.update(moved, turned, dt)
         previous_clearance = self._clearance
-        self._clearance = self._footprint_clearance(pose)
-        self._min_clearance = min(self._min_clearance, self._clearance)
+        self._clearance = clearance
+        self._min_clearance = min(self._min_clearance, clearance)
         self.trajectory.append(pose)
         twist_true = (true_vx, true_vy, true_w)
         return _Moved(previous, twist_true, physics.bumps - bumps_before, idle_s, previous_clearance, extras)

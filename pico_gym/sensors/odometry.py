@@ -14,10 +14,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pico_gym.jit import njit
+from pico_gym.pymath import wrap_angle
 from pico_gym.robot import RobotConfig
 from pico_gym.types import FloatArray, Pose
 from pico_gym.validate import flag, number
-from pico_gym.world.geometry import wrap_angle
 
 # emc_simulator: true wheel speed = commanded * (1 + U(-0.002, 0.002)), factors redrawn every
 # few seconds.
@@ -65,6 +66,14 @@ def integrate_twist(pose: Pose, vx: float, vy: float, w: float, dt: float) -> Po
     >>> [round(v, 6) for v in p]
     [0.63662, 0.63662, 1.570796]
     """
+    return Pose(*integrate(pose[0], pose[1], pose[2], vx, vy, w, dt))
+
+
+@njit
+def integrate(
+    x: float, y: float, theta: float, vx: float, vy: float, w: float, dt: float
+) -> tuple[float, float, float]:
+    """`integrate_twist` on plain floats, compiled (the step's kernel calls it)."""
     dth = w * dt
     if abs(dth) < 1e-9:
         dx, dy = vx * dt, vy * dt
@@ -72,8 +81,21 @@ def integrate_twist(pose: Pose, vx: float, vy: float, w: float, dt: float) -> Po
         s, c = math.sin(dth), math.cos(dth)
         a, b = s / w, (1.0 - c) / w
         dx, dy = a * vx - b * vy, b * vx + a * vy
-    cs, sn = math.cos(pose.theta), math.sin(pose.theta)
-    return Pose(pose.x + cs * dx - sn * dy, pose.y + sn * dx + cs * dy, float(wrap_angle(pose.theta + dth)))
+    cs, sn = math.cos(theta), math.sin(theta)
+    return x + cs * dx - sn * dy, y + sn * dx + cs * dy, wrap_angle(theta + dth)
+
+
+@njit(fastmath={"contract"})
+def ground_twist(m: FloatArray, vx: float, vy: float, w: float) -> tuple[float, float, float]:
+    """m @ (vx, vy, w): the true twist for a commanded one, through the wheels' factors.
+
+    Contracted to fused multiply-adds, row by row, as numpy's matrix-vector product (BLAS)
+    computes it: the episodes stay what they were when numpy computed this."""
+    return (
+        m[0, 0] * vx + m[0, 1] * vy + m[0, 2] * w,
+        m[1, 0] * vx + m[1, 1] * vy + m[1, 2] * w,
+        m[2, 0] * vx + m[2, 1] * vy + m[2, 2] * w,
+    )
 
 
 class Odometry:
@@ -107,23 +129,26 @@ class Odometry:
         # body twist -> wheels -> scaled -> body twist, as one matrix
         self._true_from_commanded = self._j_inv @ np.diag(self.factors) @ self._j
 
-    def true_twist(
-        self, vx: float, vy: float, w: float, dt: float, rng: np.random.Generator
-    ) -> tuple[float, float, float]:
-        """The twist the ground gives the robot for a commanded twist over the next dt seconds."""
+    def ground(self, dt: float, rng: np.random.Generator) -> FloatArray | None:
+        """The matrix that turns the next dt seconds' commanded twist into the true one (None:
+        the wheels do exactly what they are told); draws the wheel factors when they are due."""
         if self._until_redraw <= 0.0:
             self._redraw(rng)
         self._until_redraw -= dt
         slip = self.config.slip_std
         if slip > 0.0:
             factors = self.factors * (1.0 + slip * rng.standard_normal(3))
-            m = self._j_inv @ np.diag(factors) @ self._j
-        elif self._exact:
-            return vx, vy, w
-        else:
-            m = self._true_from_commanded
-        tvx, tvy, tw = m.dot(np.array([vx, vy, w])).tolist()  # as m @ v, bit for bit, with less dispatch
-        return tvx, tvy, tw
+            return self._j_inv @ np.diag(factors) @ self._j
+        if self._exact:
+            return None
+        return self._true_from_commanded
+
+    def true_twist(
+        self, vx: float, vy: float, w: float, dt: float, rng: np.random.Generator
+    ) -> tuple[float, float, float]:
+        """The twist the ground gives the robot for a commanded twist over the next dt seconds."""
+        m = self.ground(dt, rng)
+        return (vx, vy, w) if m is None else ground_twist(m, vx, vy, w)
 
     def advance(self, vx: float, vy: float, w: float, dt: float) -> Pose:
         """Integrate what the encoders counted: the commanded twist."""
