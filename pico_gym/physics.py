@@ -220,6 +220,7 @@ class Physics:
         self.add_static(segments, kinds)
         self._mover_bodies: list[pymunk.Body] = []
         self._bodies_stale = False  # the movers moved (gliding) since the bodies were placed
+        self._stop_bodies = False  # and walked during a glide: their bodies are to be stopped then
         self._pending: tuple | None = None  # the robot's state after glides, not yet in pymunk
         movers = scene.movers if scene is not None else None
         for i, rec in enumerate(movers.records if movers is not None else ()):
@@ -375,7 +376,7 @@ class Physics:
             return
         self._flush()
         if self._mover_bodies and self._bodies_stale:
-            self._place_bodies()  # where the movers went while the robot glided
+            self._place_bodies()  # where the movers went while the robot glided (and stopped)
         body = self.body
         # The static segments the footprint can reach in this step (the caps bound its motion).
         x, y = body.position
@@ -450,17 +451,18 @@ class Physics:
         """Put the kinematic bodies exactly where the scene's movers are (no drift)."""
         for body, (x, y) in zip(self._mover_bodies, self.scene.movers.positions().tolist(), strict=True):
             body.position = (x, y)
-        self._bodies_stale = False
+            if self._stop_bodies:
+                body.velocity = (0.0, 0.0)
+        self._bodies_stale = self._stop_bodies = False
 
     def _advance_movers_gliding(self, vx: float, vy: float, w: float, n: int, h: float) -> None:
         """The movers' sub-steps while the robot glides (no contact possible this step)."""
         x, y, angle = self._xya()
         scene = self.scene
-        # The bodies sleep through a glide (no contact is possible): they are stopped once and put
-        # where their movers are only when pymunk steps again.
+        # The bodies sleep through a glide (no contact is possible): they are stopped and put where
+        # their movers are only when pymunk steps again (`_place_bodies`).
         if scene.movers.glide(x, y, angle, vx, vy, w, n, h, scene.mover_segments):
-            for body in self._mover_bodies:
-                body.velocity = (0.0, 0.0)
+            self._stop_bodies = True
         self._bodies_stale = True
 
     def _glide(self, vx: float, vy: float, w: float, duration_s: float) -> None:
@@ -470,11 +472,19 @@ class Physics:
         write after any number of glides instead of one per step)."""
         x, y, a = self._xya()
         x, y, angle, velocity_x, velocity_y = glide(x, y, a, vx, vy, w, duration_s)
-        self.glided(x, y, angle, velocity_x, velocity_y, w, duration_s)
+        self._pending = (x, y, angle, (velocity_x, velocity_y), w)
+        self.time_s += duration_s
 
-    def glided(self, x: float, y: float, angle: float, vx: float, vy: float, w: float, duration_s: float) -> None:
-        """Take a glide computed elsewhere (by `glide`, in the step's kernel): the body's new
-        position, unwrapped angle and map-frame velocity, its angular velocity, the time it took."""
+    def glided(
+        self, x: float, y: float, angle: float, vx: float, vy: float, w: float, duration_s: float, movers_walked: bool
+    ) -> None:
+        """Take a step's glide computed in the step's kernel (`step`'s free path, compiled: the
+        movers' sub-steps by `glide_movers`, then the body's by `glide`): the body's new position,
+        unwrapped angle and map-frame velocity, its angular velocity, the sub-steps' time, and
+        whether a mover was walking at the end (its body is then stopped, as `step` stops it)."""
+        if self._mover_bodies:
+            self._stop_bodies |= movers_walked
+            self._bodies_stale = True
         self._pending = (x, y, angle, (vx, vy), w)
         self.time_s += duration_s
 
@@ -482,13 +492,13 @@ class Physics:
         """What the step's kernel needs to glide: the body's position and unwrapped angle, and
         whether a glide may be taken at all now (the shortcut is on and nothing touches)."""
         x, y, a = self._xya()
-        return x, y, a, self._may_glide and self.contacts == 0 and not self._mover_bodies
+        return x, y, a, self._may_glide and self.contacts == 0
 
-    def glide_constants(self, duration_s: float) -> tuple[float, float, float]:
-        """(circumradius, margin, glide time) of a step of `duration_s`: what `step` tests the room
-        against (`sweep` plus the margin) and how long the sub-steps it glides through take."""
+    def glide_constants(self, duration_s: float) -> tuple[float, float, int, float]:
+        """(circumradius, margin, sub-steps, sub-step) of a step of `duration_s`: what `step` tests
+        the room against (`sweep` plus the margin) and the sub-steps it glides through."""
         h = self.config.substep_s
-        return self._circumradius_m, self._glide_margin, max(1, round(duration_s / h)) * h
+        return self._circumradius_m, self._glide_margin, max(1, round(duration_s / h)), h
 
     def _xya(self) -> tuple[float, float, float]:
         """The body's position and unwrapped angle (a pending glide's, if any)."""

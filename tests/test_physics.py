@@ -189,3 +189,49 @@ def test_an_env_reusing_its_static_shapes_plays_as_a_fresh_one(kwargs: dict) -> 
     pooled = used.unwrapped._shape_pool
     assert pooled is not None
     assert play(used, 4) == play(gym.make("PicoHospital-v0", **kwargs), 4)
+
+
+@pytest.mark.parametrize(
+    ("env_id", "kwargs"),
+    [
+        ("PicoEscape-v0", {"noise_m": 0.02, "slip_std": 0.05}),
+        ("PicoHospital-v0", {"map": "hospital_2019", "n_movers": (2, 2), "n_boxes": (2, 2)}),
+    ],
+)
+def test_the_steps_compiled_motion_is_the_physics_own_step(env_id: str, kwargs: dict) -> None:
+    """The env moves the robot in one compiled call (`_drive`); stepping a copy through the
+    Python parts it replaces (clip, true twist, `Physics.step`, odometry) gives the same state,
+    bit for bit, whether the step glides or pymunk takes it."""
+    import copy
+
+    import gymnasium as gym
+
+    from pico_gym.robot import clip_twist
+
+    env = gym.make(env_id, **kwargs).unwrapped
+    env.reset(seed=3)
+    rng = np.random.default_rng(3)
+    glided = stepped = 0
+    for _ in range(400):
+        action = rng.uniform(env.action_space.low, env.action_space.high).astype(np.float32)
+        twin = copy.deepcopy(env)
+        env.step(action)
+        # The same step, the Python way, on the copy.
+        dt = twin.config.dt_s
+        vx, vy, w = clip_twist(action[:3], twin.config.robot)
+        true = twin.odometry.true_twist(vx, vy, w, dt, twin.np_random)
+        free = twin.physics.contacts == 0 and twin._room > twin.physics.sweep_m(*true, dt) + twin.physics._glide_margin
+        twin.physics.step(*true, dt, twin._room)
+        twin.odometry.advance(vx, vy, w, dt)
+        assert tuple(env.pose) == tuple(twin.physics.pose)
+        assert tuple(env.odometry.pose) == tuple(twin.odometry.pose)
+        assert env.physics._pending == twin.physics._pending
+        assert env.physics.time_s == twin.physics.time_s
+        if env.scene.has_movers:
+            assert np.array_equal(env.scene.movers.state, twin.scene.movers.state)
+            assert np.array_equal(env.scene.mover_segments, twin.scene.mover_segments)
+        glided += free
+        stepped += not free
+        if env._finished:
+            env.reset(seed=int(rng.integers(1000)))
+    assert glided > 50 and stepped > 5  # both paths were taken

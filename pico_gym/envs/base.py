@@ -34,6 +34,7 @@ from pico_gym.validate import number
 from pico_gym.world import geometry
 from pico_gym.world.geometry import compose, footprint_clearance, inverse, wrap_angle
 from pico_gym.world.map import Map
+from pico_gym.world.movers import glide_movers
 from pico_gym.world.scene import KINDS, Scene, SceneSnapshot
 
 # Clearance is computed exactly up to this distance; farther reads as this value [m].
@@ -44,22 +45,29 @@ _NO_EXTRAS = np.zeros(0)
 
 
 _IDENTITY = np.eye(3)
+_NO_MOVERS = (np.zeros((0, 10)), np.zeros((0, 6)), np.zeros((0, 2)), np.zeros((0, 4)))
 
 
 @njit
 def _drive(
     vx: float, vy: float, w: float, vmax: float, wmax: float, ground: FloatArray, exact: bool, dt: float,
-    x0: float, y0: float, a0: float, may_glide: bool, room: float, circumradius: float, margin: float, glide_s: float,
+    x0: float, y0: float, a0: float, may_glide: bool, room: float,
+    circumradius: float, margin: float, substeps: int, substep_s: float,
     odom_x: float, odom_y: float, odom_theta: float, px: float, py: float, ptheta: float,
     outline: FloatArray, solid: Segments, cap: float,
-) -> tuple[bool, float, float, float, float, float, float, float, float, float,
-           float, float, float, float, float, float, float, float, float]:  # fmt: skip
+    movers: tuple[FloatArray, FloatArray, FloatArray, Segments], mover_speed: float,
+) -> tuple[int, float, float, float, float, float, float, float, float, float,
+           float, float, float, float, float, float, float, float, float, float]:  # fmt: skip
     """A step's motion up to the scan, compiled: the command clipped to the limits, the true twist
     (`Odometry.ground`'s matrix, or the command itself when `exact`), odometry, and, when the
-    robot may glide (`Physics.step`'s free-space test on the same figures), the glide from the
-    body's (x0, y0, a0) with the new pose, how far it moved and turned from (px, py, ptheta), and
-    its footprint's clearance to `solid`. Without the glide the last ten values are zeros and the
-    physics steps the robot. Each part is the compiled twin of the Python it replaces, to the bit."""
+    robot may glide (`Physics.step`'s free-space test on the same figures), the glide: the movers'
+    sub-steps (`movers` = their state, parameters, velocities and edges, as
+    `Movers.glide` takes them; no rows: no movers) and the body's from (x0, y0, a0), with the new
+    pose, how far it moved and turned from (px, py, ptheta), its footprint's clearance to
+    everything solid and the room the next step has (as `PicoEnv._footprint_clearance`).
+    The first value is 0 without the glide (the last ten values are then zeros and the physics
+    steps the robot), 1 with it, 2 with it when a mover was walking (its body must stop).
+    Each part is the compiled twin of the Python it replaces, to the bit."""
     vx, vy, w = clip_limits(vx, vy, w, vmax, wmax)
     if exact:
         tvx, tvy, tw = vx, vy, w
@@ -67,14 +75,25 @@ def _drive(
         tvx, tvy, tw = ground_twist(ground, vx, vy, w)
     ox, oy, otheta = integrate(odom_x, odom_y, odom_theta, vx, vy, w, dt)
     if not (may_glide and room > sweep(tvx, tvy, tw, dt, circumradius) + margin):
-        return False, vx, vy, w, tvx, tvy, tw, ox, oy, otheta, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
-    x, y, angle, velocity_x, velocity_y = glide(x0, y0, a0, tvx, tvy, tw, glide_s)
+        return 0, vx, vy, w, tvx, tvy, tw, ox, oy, otheta, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    glided = 1
+    state, params, velocity, edges = movers
+    if state.shape[0] > 0 and glide_movers(
+        state, params, x0, y0, a0, tvx, tvy, tw, substeps, substep_s, velocity, edges
+    ):
+        glided = 2
+    x, y, angle, velocity_x, velocity_y = glide(x0, y0, a0, tvx, tvy, tw, substeps * substep_s)
     theta = remainder(angle, TWO_PI)
     moved = hypot(x - px, y - py)
     turned = abs(compiled_wrap(theta - ptheta))
     clearance = footprint_clearance(x, y, theta, outline, solid, cap)
-    glided = (x, y, angle, velocity_x, velocity_y, theta, moved, turned, clearance)
-    return True, vx, vy, w, tvx, tvy, tw, ox, oy, otheta, *glided
+    room = clearance
+    if state.shape[0] > 0:
+        to_movers = footprint_clearance(x, y, theta, outline, edges, cap)
+        room = min(clearance, to_movers - mover_speed * dt)
+        clearance = min(clearance, to_movers)
+    pose = (x, y, angle, velocity_x, velocity_y, theta, moved, turned, clearance, room)
+    return glided, vx, vy, w, tvx, tvy, tw, ox, oy, otheta, *pose
 
 
 class _Moved(NamedTuple):
@@ -229,10 +248,15 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self._use_scene(scene)
         self._movers = scene.mover_segments if scene.has_movers else None
         self._mover_speed = scene.max_mover_speed_mps
+        movers = scene.movers
+        self._mover_arrays = (
+            (movers.state, movers.params, movers.velocity, scene.mover_segments) if scene.has_movers else _NO_MOVERS
+        )
         if self.physics is not None:
             self.physics.release()  # its static shapes, for this episode's physics
         self.physics = Physics.from_scene(scene, self.config.robot, self.config.physics, ep.start, self._shape_pool)
         self._glide = self.physics.glide_constants(self.config.dt_s)
+        self._glide_s = self._glide[2] * self._glide[3]  # the sub-steps' time, as the kernel glides it
         self._excused = [0] * len(KINDS)  # contacts the task's rules excused, by kind
         self._n_excused = 0
         odom0 = self.odometry.reset(self.np_random)
@@ -285,17 +309,17 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         previous = self._pose
         # Clip, the true twist, odometry and (when nothing can be touched) the glide with the new
         # pose's motion and clearance, in one compiled call.
-        (free, vx, vy, w, true_vx, true_vy, true_w, odom_x, odom_y, odom_theta,
-         x, y, angle, velocity_x, velocity_y, theta, moved, turned, clearance) = _drive(
+        (glided, vx, vy, w, true_vx, true_vy, true_w, odom_x, odom_y, odom_theta,
+         x, y, angle, velocity_x, velocity_y, theta, moved, turned, clearance, room) = _drive(
             vx, vy, w, *self._limits, _IDENTITY if ground is None else ground, ground is None, dt,
             x0, y0, a0, may_glide, self._room, *self._glide, *odometry.pose, *previous,
-            self._outline, self._solid, CLEARANCE_CAP_M,
+            self._outline, self._solid, CLEARANCE_CAP_M, self._mover_arrays, self._mover_speed,
         )  # fmt: skip
         odometry.pose = Pose(odom_x, odom_y, odom_theta)
-        if free:
-            physics.glided(x, y, angle, velocity_x, velocity_y, true_w, self._glide[2])
+        if glided:
+            physics.glided(x, y, angle, velocity_x, velocity_y, true_w, self._glide_s, glided == 2)
             pose = Pose(x, y, theta)
-            self._room = clearance  # (no movers: the glide's inputs say so)
+            self._room = room
         else:
             # Movers, a possible contact, or the shortcut off: the physics steps it.
             physics.step(true_vx, true_vy, true_w, dt, self._room)

@@ -225,6 +225,28 @@ _SORT_MIN_SEGMENTS = 32
 
 
 @njit
+def _first_beam(beam_angles: FloatArray, angle: float, a_lo: float, a_hi: float, after: bool) -> int:
+    """The first beam at or after `angle` (after=True: strictly after): `np.searchsorted`'s
+    answer ("left" or "right"), found from where evenly spaced beams put it and a few steps."""
+    n = beam_angles.shape[0]
+    k = 0
+    if angle > a_hi:
+        k = n
+    elif angle > a_lo and n > 1:
+        k = int((angle - a_lo) / (a_hi - a_lo) * (n - 1))
+    for _ in range(4):
+        if k > 0 and (beam_angles[k - 1] > angle or (not after and beam_angles[k - 1] == angle)):
+            k -= 1
+        elif k < n and (beam_angles[k] < angle or (after and beam_angles[k] == angle)):
+            k += 1
+        else:
+            return k
+    if after:  # beams far from even
+        return np.searchsorted(beam_angles, angle, side="right")
+    return np.searchsorted(beam_angles, angle, side="left")
+
+
+@njit
 def _cast_one(
     x1: float,
     y1: float,
@@ -259,8 +281,8 @@ def _cast_one(
         hi = start + shift + span + 1e-12
         if hi < a_lo or lo > a_hi:
             continue
-        i0 = np.searchsorted(beam_angles, lo, side="left")
-        i1 = np.searchsorted(beam_angles, hi, side="right")
+        i0 = _first_beam(beam_angles, lo, a_lo, a_hi, False)
+        i1 = _first_beam(beam_angles, hi, a_lo, a_hi, True)
         for i in range(i0, i1):
             if out[i] < bound:
                 continue  # occluded: this segment cannot be nearer
@@ -299,19 +321,23 @@ def _cast_noisy(
     beam_cos: FloatArray,
     beam_sin: FloatArray,
     one_sided: np.ndarray,
+    dynamic: Segments,
     unit: FloatArray,
     reading: tuple[float, float, float, float],
     exact: FloatArray,
     out: np.ndarray,
 ) -> None:
-    """`_cast` into `exact`, then `_noisy` into `out`, in one call (one dispatch less per scan);
-    reading = (noise, rmin, rmax, no_hit)."""
+    """`_cast` of `segments` and then of `dynamic` (no rows: none) into `exact`, then `_noisy`
+    into `out`, in one call (fewer dispatches per scan); reading = (noise, rmin, rmax, no_hit)."""
     noise, rmin, rmax, no_hit = reading
     _cast(x, y, theta, segments, beam_angles, beam_cos, beam_sin, rmax, exact, True, one_sided)
+    if dynamic.shape[0] > 0:
+        _cast(x, y, theta, dynamic, beam_angles, beam_cos, beam_sin, rmax, exact, False, _NO_FLAGS)
     _noisy(exact, unit, noise, rmin, rmax, no_hit, out)
 
 
 _NO_FLAGS = np.zeros(0, dtype=np.bool_)
+_NO_SEGMENTS = np.zeros((0, 4))
 
 
 @njit
@@ -541,12 +567,13 @@ class Lrf:
         if self._draws_noise:
             rng.random(out=unit)  # the same draws as rng.random(n_beams), into a kept buffer
         out = np.empty(self.config.n_beams, dtype=np.float32)
-        if (dynamic is None or not len(dynamic)) and not isinstance(segments, SegmentGrid):
-            # The common small scene: cast and noise in one compiled call.
+        if not isinstance(segments, SegmentGrid):
+            # The common small scene: cast (the movers too) and noise in one compiled call.
             flags = _NO_FLAGS if one_sided is None else one_sided
             x, y, th = pose[0], pose[1], pose[2]
             beams, cos, sin, ranges = self.beam_angles, self._cos, self._sin, self._ranges
-            _cast_noisy(x, y, th, segments, beams, cos, sin, flags, unit, self._reading, ranges, out)
+            moving = _NO_SEGMENTS if dynamic is None else dynamic
+            _cast_noisy(x, y, th, segments, beams, cos, sin, flags, moving, unit, self._reading, ranges, out)
         else:
             _noisy(self.exact(pose, segments, dynamic, one_sided), unit, *self._reading, out)
         return out

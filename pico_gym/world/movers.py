@@ -168,7 +168,7 @@ def _advance_gliding(
 
 
 @njit
-def _glide_and_write(
+def glide_movers(
     state: FloatArray,
     params: FloatArray,
     x: float,
@@ -308,7 +308,7 @@ class Movers:
         mover had a velocity, which is then zeroed (see `Physics`: bodies sleep through a glide)."""
         if not self.records:
             return False
-        moving = _glide_and_write(self.state, self.params, x, y, theta, vx, vy, w, n, duration_s, self.velocity, out)
+        moving = glide_movers(self.state, self.params, x, y, theta, vx, vy, w, n, duration_s, self.velocity, out)
         return bool(moving)
 
     def poses(self) -> FloatArray:
