@@ -1,11 +1,15 @@
 """N robots in one process: pico-gym's vector env (`gymnasium.make_vec(..., vectorization_mode="vector_entry_point")`).
 
-`PicoVectorEnv` holds N pico-gym envs and steps them together: each robot's action, physics and
-odometry (`PicoEnv._act`), then the scans of every robot whose scene is a plain segment array in
-one compiled call (cast and noise; robots on large maps or with movers scan on their own), then
-each task's verdict (`PicoEnv._judge`). Infos are batched per key as gymnasium's `SyncVectorEnv`
-batches them (a value array and a `_key` mask per key, nested dicts alike), built once per step
-rather than env by env.
+`PicoVectorEnv` holds N pico-gym envs and steps them together. PicoEscape-v0 robots step in one
+compiled call for all of them (`pico_gym.batched.EscapeBatch`: motion, scan, the task's verdict
+and the info values, with the robots' state kept in arrays; a step the physics must take, an
+episode's end and a reset go through the robot's own env). Other robots step env by env: each
+robot's action, physics and odometry (`PicoEnv._act`), then the scans of every robot whose scene
+is a plain segment array in one compiled call (cast and noise; robots on large maps or with movers
+scan on their own), then each task's verdict (`PicoEnv._judge`). Infos are batched per key as
+gymnasium's `SyncVectorEnv` batches them (a value array and a `_key` mask per key, nested dicts
+alike), built once per step rather than env by env. `envs` hands out the robots' own envs, brought
+up to date first.
 
 Same seeds, same episodes: sub-env i is an ordinary env seeded as `SyncVectorEnv` seeds it
 (`seed + i`), every random draw still comes from its own `np_random`, and the scan of a robot is
@@ -29,8 +33,11 @@ import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from pico_gym.batched import N_INFO, REASONS, REWARD_TERMS, EscapeBatch, escape_infos
+from pico_gym.envs.base import _NO_EXTRAS
 from pico_gym.jit import njit
 from pico_gym.sensors.lrf import _cast, _noisy
+from pico_gym.tasks.escape import EscapeTask
 from pico_gym.types import FloatArray, Segments
 
 
@@ -97,8 +104,8 @@ class PicoVectorEnv(VectorEnv):
         if mode not in (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP):
             raise ValueError(f"autoreset_mode must be 'NextStep' or 'SameStep', got {autoreset_mode!r}")
         kwargs.pop("max_episode_steps", None)  # gymnasium passes the spec's (None: pico-gym envs time out themselves)
-        self.envs = [gym.make(env_id, **kwargs).unwrapped for _ in range(num_envs)]
-        first = self.envs[0]
+        self._envs = [gym.make(env_id, **kwargs).unwrapped for _ in range(num_envs)]
+        first = self._envs[0]
         self.num_envs = num_envs
         self.single_observation_space = first.observation_space
         self.single_action_space = first.action_space
@@ -119,18 +126,33 @@ class PicoVectorEnv(VectorEnv):
         self._segments = np.zeros((0, 4))
         self._flags = np.zeros(0, dtype=np.bool_)
         self._batchable = [False] * num_envs  # scanned in the batch call (a plain segment array, no movers)
+        # Escape robots step in one compiled call (`pico_gym.batched`).
+        self._batch = EscapeBatch(self._envs) if isinstance(first.task, EscapeTask) and first._n_extras == 0 else None
+        self._all = np.arange(num_envs)
+
+    @property
+    def envs(self) -> list[Any]:
+        """The robots' own envs, up to date (what the batch holds for them is handed back first)."""
+        self._hand_back()
+        return self._envs
+
+    def _hand_back(self) -> None:
+        """Bring every robot's env up to date from the batch's rows."""
+        if self._batch is not None:
+            for i in range(self.num_envs):
+                self._batch.sync_out(i)
 
     # --- the batch's scene arrays ----------------------------------------------------------
     def _refresh_scenes(self) -> None:
         """Rebuild the joined segment arrays when a robot's static scene changed (a reset, or a
         task's new scene)."""
-        seen = [env._seen for env in self.envs]
+        seen = [env._seen for env in self._envs]
         if all(a is b for a, b in zip(seen, self._scenes, strict=True)):
             return
         self._scenes = seen
         segments, flags = [], []
         n_seg = n_flag = 0
-        for i, env in enumerate(self.envs):
+        for i, env in enumerate(self._envs):
             static = env._seen
             ok = isinstance(static, np.ndarray) and env._movers is None
             self._batchable[i] = ok
@@ -151,7 +173,7 @@ class PicoVectorEnv(VectorEnv):
     def _scan(self, stepped: list[int], out: np.ndarray) -> None:
         """The scans of the robots just stepped, into their rows of `out` (and into each env)."""
         self._refresh_scenes()
-        envs, batchable = self.envs, self._batchable
+        envs, batchable = self._envs, self._batchable
         batch = [i for i in stepped if batchable[i]]
         lrf = self._lrf
         if batch:
@@ -200,8 +222,9 @@ class PicoVectorEnv(VectorEnv):
                 raise ValueError("options['reset_mask'] must reset at least one env")
         which = range(n) if mask is None else np.flatnonzero(mask).tolist()
         infos: list[dict[str, Any] | None] = [None] * n
+        envs = self.envs
         for i in which:
-            _, infos[i] = self.envs[i].reset(seed=seeds[i], options=options or None)
+            _, infos[i] = envs[i].reset(seed=seeds[i], options=options or None)
             self._autoreset[i] = False
         return self._observations(), infos
 
@@ -209,8 +232,12 @@ class PicoVectorEnv(VectorEnv):
         self, actions: np.ndarray
     ) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """Step every robot with its row of `actions` (an (num_envs, action size) array)."""
-        obs, rewards, terminated, truncated, infos, final = self.step_each(actions)
-        batched = self._batch_infos(infos)
+        actions = np.asarray(actions)
+        if self._batch is not None and actions.shape == (self.num_envs, 3) and np.isfinite(actions).all():
+            obs, rewards, terminated, truncated, batched, final = self._step_batch(actions)
+        else:
+            obs, rewards, terminated, truncated, infos, final = self.step_each(actions)
+            batched = self._batch_infos(infos)
         if final:
             n = self.num_envs
             objects = np.full(n, None, dtype=object)
@@ -222,6 +249,104 @@ class PicoVectorEnv(VectorEnv):
             batched["final_obs"], batched["_final_obs"] = objects, mask
             batched["final_info"], batched["_final_info"] = self._batch_infos(final_infos), mask.copy()
         return obs, rewards, terminated, truncated, batched
+
+    def _step_batch(
+        self, actions: np.ndarray
+    ) -> tuple[
+        dict[str, np.ndarray],
+        np.ndarray,
+        np.ndarray,
+        np.ndarray,
+        dict[str, Any],
+        dict[int, tuple[dict[str, np.ndarray], dict[str, Any]]],
+    ]:
+        """`step` with the escape robots in one compiled call (`pico_gym.batched`); robots the
+        batch does not take, and steps it hands back (a possible contact), go through their envs."""
+        n = self.num_envs
+        batch, envs = self._batch, self._envs
+        assert batch is not None
+        rewards = np.zeros(n)
+        terminated = np.zeros(n, dtype=np.bool_)
+        truncated = np.zeros(n, dtype=np.bool_)
+        scans = np.empty((n, self._lrf.config.n_beams), dtype=np.float32)
+        odom = np.empty((n, 3), dtype=np.float32)
+        values = np.zeros((N_INFO, n))  # the kernel's info values: one row per value
+        patches: dict[int, dict[str, Any]] = {}
+        next_step = self.autoreset_mode == AutoresetMode.NEXT_STEP
+        others: list[int] = []
+        everyone = not self._autoreset.any() and batch.live.all()
+        if everyone:
+            rows = self._all  # the common step: every robot in the batch
+        else:
+            stepping = np.ones(n, dtype=np.bool_)
+            for i in range(n):
+                if next_step and self._autoreset[i]:  # this step resets it (and steps it not)
+                    obs, patches[i] = envs[i].reset()
+                    scans[i], odom[i] = obs["lrf"], obs["odom"]
+                    self._autoreset[i] = False
+                    batch.sync_in(i)
+                    stepping[i] = False
+                    continue
+                batch.sync_in(i)  # (if its env is ahead of its row)
+                if not batch.live[i]:
+                    others.append(i)
+            rows = np.flatnonzero(batch.live & stepping)
+        final: dict[int, tuple[dict[str, np.ndarray], dict[str, Any]]] = {}
+        ends, motions = batch.ends, batch.motions
+        events: list[int] = []
+        if len(rows):
+            batch.prepare(rows, everyone)
+            if batch.step(rows, actions, scans, odom, values, rewards, terminated, truncated):
+                events = np.flatnonzero(ends[:, 0] | ends[:, 1]).tolist()
+        else:
+            ends[:] = 0
+        for i in events:
+            code = int(ends[i, 0])
+            if code < 0:  # a contact is possible: the physics steps it, in the robot's own env
+                batch.sync_out(i)
+                env = envs[i]
+                moved = env._moved(tuple(motions[i].tolist()), _NO_EXTRAS)
+                scans[i] = env.lrf.read(env._pose, env._seen, batch.unit_row(i), env._movers, env._one_sided)
+                env._sense(scans[i])
+                obs, rewards[i], terminated[i], truncated[i], patches[i] = env._judge(moved)
+                odom[i] = obs["odom"]
+                ends[i] = 0
+            else:  # the episode ended
+                batch.sync_out(i)
+                env = envs[i]
+                env._finished = True
+                terms = dict(zip(REWARD_TERMS, values[10:16, i].tolist(), strict=True))
+                reason = REASONS[code] if code > 0 else "timeout"
+                patches[i] = env._info(terms, reason, bool(ends[i, 2]), float(values[16, i]))
+            if terminated[i] or truncated[i]:
+                if next_step:
+                    self._autoreset[i] = True
+                else:
+                    final[i] = ({"lrf": scans[i].copy(), "odom": odom[i].copy()}, patches[i])
+                    obs, patches[i] = envs[i].reset()
+                    scans[i], odom[i] = obs["lrf"], obs["odom"]
+            batch.sync_in(i)
+        for i in others:  # not the batch's: as `step_each` steps them
+            env = envs[i]
+            moved = env._act(actions[i])
+            scans[i] = env.lrf.scan(env._pose, env._seen, env.np_random, env._movers, env._one_sided)
+            env._sense(scans[i])
+            obs, rewards[i], terminated[i], truncated[i], patches[i] = env._judge(moved)
+            odom[i] = obs["odom"]
+            if terminated[i] or truncated[i]:
+                if next_step:
+                    self._autoreset[i] = True
+                else:
+                    final[i] = ({"lrf": scans[i].copy(), "odom": odom[i].copy()}, patches[i])
+                    obs, patches[i] = env.reset()
+                    scans[i], odom[i] = obs["lrf"], obs["odom"]
+            batch.sync_in(i)
+        batched = escape_infos(values, ends, batch, patches)
+        if batched is None:  # some robot's info has other keys: batch every robot's own
+            kernel = escape_infos(values, ends, batch, {})
+            assert kernel is not None
+            batched = self._batch_infos([patches[i] if i in patches else _row(kernel, i) for i in range(n)])
+        return {"lrf": scans, "odom": odom}, rewards, terminated, truncated, batched, final
 
     def step_each(
         self, actions: np.ndarray
@@ -258,7 +383,7 @@ class PicoVectorEnv(VectorEnv):
         self._scan(stepped, scans)
         final: dict[int, tuple[dict[str, np.ndarray], dict[str, Any]]] = {}
         for i, moved in zip(stepped, moves, strict=True):
-            env = self.envs[i]
+            env = self._envs[i]
             obs, rewards[i], terminated[i], truncated[i], infos[i] = env._judge(moved)
             if terminated[i] or truncated[i]:
                 if next_step:
@@ -271,10 +396,10 @@ class PicoVectorEnv(VectorEnv):
         return {"lrf": scans, "odom": self._odometry()}, rewards, terminated, truncated, infos, final
 
     def _observations(self) -> dict[str, np.ndarray]:
-        return {"lrf": np.stack([env.last_scan for env in self.envs]), "odom": self._odometry()}
+        return {"lrf": np.stack([env.last_scan for env in self._envs]), "odom": self._odometry()}
 
     def _odometry(self) -> np.ndarray:
-        return np.array([env.odometry.pose for env in self.envs], dtype=np.float32)
+        return np.array([env.odometry.pose for env in self._envs], dtype=np.float32)
 
     def _batch_infos(self, infos: list[dict[str, Any] | None]) -> dict[str, Any]:
         """Per key, one array over the envs and a `_key` mask of the envs that have it: what
@@ -346,8 +471,24 @@ class PicoVectorEnv(VectorEnv):
         return tuple(env.render() for env in self.envs)
 
     def close_extras(self, **kwargs: Any) -> None:
-        for env in self.envs:
+        for env in self._envs:
             env.close()
+
+
+def _row(batched: dict[str, Any], i: int) -> dict[str, Any]:
+    """Robot i's own info dict from batched infos (the values as an env hands them out)."""
+    row: dict[str, Any] = {}
+    for key, value in batched.items():
+        if key.startswith("_"):
+            continue
+        if isinstance(value, dict):
+            row[key] = _row(value, i)
+        elif value.ndim > 1:
+            row[key] = value[i].copy()
+        else:
+            item = value[i]
+            row[key] = item.item() if isinstance(item, np.generic) else item
+    return row
 
 
 # The creators `gymnasium.make_vec` calls (registered by name, so that specs pickle):

@@ -43,6 +43,11 @@ CASES = [
     ("PicoEscape-v0", {"time_limit_s": 4.0}, AutoresetMode.NEXT_STEP),
     ("PicoEscape-v0", {"n_obstacles": 2, "slip_std": 0.05, "noise_m": 0.0, "time_limit_s": 6.0},
      AutoresetMode.SAME_STEP),
+    # The escape robots' compiled batch (`pico_gym.batched`): contacts the physics steps, bumps
+    # that go on, idle ends, random odometry starts, noisier scans.
+    ("PicoEscape-v0", {"n_obstacles": 2, "noise_m": 0.03, "collision": "continue", "time_limit_s": 8.0},
+     AutoresetMode.NEXT_STEP),
+    ("PicoEscape-v0", {"random_start": True, "idle_time_s": 1.0, "time_limit_s": 5.0}, AutoresetMode.SAME_STEP),
     ("PicoHospital-v0", {"map": "hospital_2019", "n_movers": (1, 1), "n_boxes": (2, 2), "closed_doors": (1, 1),
                          "time_limit_s": 5.0}, AutoresetMode.SAME_STEP),
     ("PicoHospital-v0", {"map": "hospital_2021", "time_limit_s": 3.0}, AutoresetMode.NEXT_STEP),
@@ -74,6 +79,35 @@ def test_vector_env_gives_the_episodes_of_single_envs(env_id: str, options: dict
         reference.reset(seed=[None, 5, None], options={"reset_mask": mask.copy()}),
         vector.reset(seed=[None, 5, None], options={"reset_mask": mask.copy()}),
     )
+    reference.close()
+    vector.close()
+
+
+def test_escape_robots_envs_are_up_to_date_whenever_read() -> None:
+    """The batch keeps the escape robots' state in its rows; the robots' envs, read through
+    `envs`, are what single envs are at the same step, and stepping on (by `step` or by the
+    per-robot `step_each` that the SB3 adapter uses) gives the same episodes."""
+    n, options = 3, {"n_obstacles": 1, "time_limit_s": 6.0}
+    reference = gym.make_vec("PicoEscape-v0", num_envs=n, vectorization_mode="sync", **options)
+    vector = gym.make_vec("PicoEscape-v0", num_envs=n, vectorization_mode="vector_entry_point", **options)
+    reference.reset(seed=3)
+    vector.reset(seed=3)
+    rng = np.random.default_rng(1)
+    for t in range(90):
+        actions = rng.uniform(-0.5, 0.5, size=(n, 3)).astype(np.float32)
+        if t % 30 == 29:
+            for ours, theirs in zip(vector.unwrapped.envs, reference.envs, strict=True):
+                theirs = theirs.unwrapped
+                assert (ours.pose, ours.odometry.pose, ours.steps) == (theirs.pose, theirs.odometry.pose, theirs.steps)
+                assert ours.trajectory == theirs.trajectory
+                assert np.array_equal(ours.last_scan, theirs.last_scan)
+                assert ours.np_random.bit_generator.state == theirs.np_random.bit_generator.state
+        if 40 <= t < 50:
+            obs, rewards, terminated, truncated, infos, _ = vector.unwrapped.step_each(actions)
+            expected = reference.step(actions)
+            assert np.array_equal(obs["lrf"], expected[0]["lrf"]) and np.array_equal(rewards, expected[1])
+        else:
+            assert_same(reference.step(actions), vector.step(actions), f"step {t}")
     reference.close()
     vector.close()
 

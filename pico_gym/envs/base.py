@@ -303,19 +303,26 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         twist, extras = self._split_action(action)
         vx, vy, w = checked_twist(twist)
         physics, odometry = self.physics, self.odometry
-        bumps_before = physics.bumps
         ground = odometry.ground(dt, self.np_random)
         x0, y0, a0, may_glide = physics.glide_inputs()
-        previous = self._pose
         # Clip, the true twist, odometry and (when nothing can be touched) the glide with the new
         # pose's motion and clearance, in one compiled call.
-        (glided, vx, vy, w, true_vx, true_vy, true_w, odom_x, odom_y, odom_theta,
-         x, y, angle, velocity_x, velocity_y, theta, moved, turned, clearance, room) = _drive(
+        motion = _drive(
             vx, vy, w, *self._limits, _IDENTITY if ground is None else ground, ground is None, dt,
-            x0, y0, a0, may_glide, self._room, *self._glide, *odometry.pose, *previous,
+            x0, y0, a0, may_glide, self._room, *self._glide, *odometry.pose, *self._pose,
             self._outline, self._solid, CLEARANCE_CAP_M, self._mover_arrays, self._mover_speed,
         )  # fmt: skip
-        odometry.pose = Pose(odom_x, odom_y, odom_theta)
+        return self._moved(motion, extras)
+
+    def _moved(self, motion: tuple, extras: np.ndarray) -> _Moved:
+        """The rest of `_act` from `_drive`'s result: the glide taken, or the physics' step."""
+        (glided, vx, vy, w, true_vx, true_vy, true_w, odom_x, odom_y, odom_theta,
+         x, y, angle, velocity_x, velocity_y, theta, moved, turned, clearance, room) = motion  # fmt: skip
+        dt = self.config.dt_s
+        physics = self.physics
+        bumps_before = physics.bumps
+        previous = self._pose
+        self.odometry.pose = Pose(odom_x, odom_y, odom_theta)
         if glided:
             physics.glided(x, y, angle, velocity_x, velocity_y, true_w, self._glide_s, glided == 2)
             pose = Pose(x, y, theta)

@@ -566,6 +566,18 @@ class Lrf:
         unit = self._unit
         if self._draws_noise:
             rng.random(out=unit)  # the same draws as rng.random(n_beams), into a kept buffer
+        return self.read(pose, segments, unit, dynamic, one_sided)
+
+    def read(
+        self,
+        pose: Pose,
+        segments: Segments | SegmentGrid,
+        unit: FloatArray,
+        dynamic: Segments | None = None,
+        one_sided: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """`scan` with its noise already drawn: `unit` holds the n_beams uniforms of [0, 1) it
+        would draw (any values when the config has no noise)."""
         out = np.empty(self.config.n_beams, dtype=np.float32)
         if not isinstance(segments, SegmentGrid):
             # The common small scene: cast (the movers too) and noise in one compiled call.
