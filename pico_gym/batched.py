@@ -53,7 +53,7 @@ N_INFO = 3 + 3 + 4 + 6 + 3
 REWARD_TERMS = ("progress", "success", "bump", "time", "proximity", "approach")
 # Why an episode ends, by code (0: it goes on).
 REASONS = (None, "escaped", "bump", "idle", "timeout")
-_TRAJECTORY_ROOM = 64  # poses a robot keeps before they are handed to its env's trajectory
+_TRAJECTORY_ROOM = 256  # poses a robot keeps before they are handed to its env's trajectory
 
 
 @njit
@@ -72,10 +72,11 @@ def _step_escape(
     state: FloatArray,
     istate: np.ndarray,
     const: FloatArray,
-    fields: tuple[FloatArray, ...],
-    solid: tuple[FloatArray, ...],
-    seen: tuple[FloatArray, ...],
-    flags: tuple[np.ndarray, ...],
+    fields: FloatArray,
+    solid: FloatArray,
+    seen: FloatArray,
+    flags: np.ndarray,
+    sizes: np.ndarray,
     outline: FloatArray,
     no_movers: tuple[FloatArray, FloatArray, FloatArray, FloatArray],
     bumps: np.ndarray,
@@ -95,7 +96,7 @@ def _step_escape(
     rewards: FloatArray,
     terminated: np.ndarray,
     truncated: np.ndarray,
-) -> tuple[int, bool]:
+) -> tuple[int, bool, int]:
     """One step of the robots `rows` (see the module's docstring). A robot the physics must step
     gets ends[i, 0] = -1 and its `_drive` result in motions[i] (its row otherwise untouched); the
     others get their new state, scan, odometry observation, info values (info[value, robot]) and
@@ -113,6 +114,7 @@ def _step_escape(
     glide_s = substeps * substep_s
     events = 0
     full = False
+    due_next = 0
     room_left = trajectory.shape[1]
     for j in range(rows.shape[0]):
         i = rows[j]
@@ -121,12 +123,14 @@ def _step_escape(
             grounded[i] = False
         else:
             s[_UNTIL] -= dt  # (as `Odometry.ground` counts down)
+        if s[_UNTIL] <= 0.0:
+            due_next += 1  # (its wheel factors are due next step)
         px, py, ptheta = s[_X], s[_Y], s[_TH]
         motion = _drive(
             float(actions[i, 0]), float(actions[i, 1]), float(actions[i, 2]), vmax, wmax, ground[i], exact[i], dt,
             s[_BX], s[_BY], s[_BA], istate[i, _MAY_GLIDE] != 0, s[_ROOM], circumradius, margin, substeps, substep_s,
             s[_OX], s[_OY], s[_OTH], px, py, ptheta,
-            outline, solid[i], CLEARANCE_CAP_M, no_movers, 0.0,
+            outline, solid[i, : sizes[i, 2]], CLEARANCE_CAP_M, no_movers, 0.0,
         )  # fmt: skip
         (glided, vx, vy, w, tvx, tvy, tw, ox, oy, otheta, x, y, angle, velocity_x, velocity_y, theta, moved, turned,
          clearance, room) = motion  # fmt: skip
@@ -161,11 +165,13 @@ def _step_escape(
         if t + 1 == room_left:
             full = True
         # The scan (`Lrf.scan`: cast, then noise from the drawn uniforms).
-        _cast(x, y, theta, seen[i], beam_angles, beam_cos, beam_sin, rmax, exact_ranges, True, flags[i])
+        _cast(x, y, theta, seen[i, : sizes[i, 3]], beam_angles, beam_cos, beam_sin, rmax, exact_ranges, True,
+              flags[i, : sizes[i, 4]])  # fmt: skip
         _noisy(exact_ranges, units[i], noise, rmin, rmax, no_hit, scans[i])
         # The escape task's verdict (`EscapeTask.evaluate`).
         c = const[i]
-        value = _lookup(fields[i], (x - c[13]) / c[15] - 0.5, (y - c[14]) / c[15] - 0.5)
+        field = fields[i, : sizes[i, 0] * sizes[i, 1]].reshape((sizes[i, 0], sizes[i, 1]))
+        value = _lookup(field, (x - c[13]) / c[15] - 0.5, (y - c[14]) / c[15] - 0.5)
         before = s[_VALUE]
         progress = before - value if math.isfinite(value) and math.isfinite(before) else 0.0
         s[_VALUE] = value
@@ -214,7 +220,7 @@ def _step_escape(
         info[18, i] = total
         rewards[i] = total
         odom32[i, 0], odom32[i, 1], odom32[i, 2] = ox, oy, otheta
-    return events, full
+    return events, full, due_next
 
 
 class EscapeBatch:
@@ -251,11 +257,14 @@ class EscapeBatch:
         self.live = np.zeros(n, dtype=np.bool_)  # the row holds the robot's state (its env is behind)
         self.last_scans = np.zeros((n, first.lrf.config.n_beams), dtype=np.float32)  # of the last `step`
         # Each robot's field and segments, one tuple entry per robot (the kernel indexes them).
-        self._no_flags = np.zeros(0, dtype=np.bool_)
-        self._fields: tuple[FloatArray, ...] = (np.full((1, 1), np.inf),) * n
-        self._solid: tuple[FloatArray, ...] = (np.zeros((0, 4)),) * n
-        self._seen: tuple[FloatArray, ...] = (np.zeros((0, 4)),) * n
-        self._flags: tuple[np.ndarray, ...] = (self._no_flags,) * n
+        # Each robot's episode: its field and segments, in a slot of room enough for each (grown
+        # when an episode needs more), and their sizes (field rows, columns; solid, seen, flags).
+        self._fields = np.zeros((n, 1))
+        self._solid = np.zeros((n, 1, 4))
+        self._seen = np.zeros((n, 1, 4))
+        self._flags = np.zeros((n, 1), dtype=np.bool_)
+        self._sizes = np.zeros((n, 5), dtype=np.int64)
+        self._sources: list[tuple[Any, ...]] = [()] * n  # what each slot was filled from
         self._outline = np.ascontiguousarray(robot.outline, dtype=np.float64)
         lrf = first.lrf
         self._beams = (lrf.beam_angles, lrf._cos, lrf._sin)
@@ -269,6 +278,8 @@ class EscapeBatch:
         self._dt = cfg.dt_s
         self._slips = first.odometry.config.slip_std > 0.0
         self.grounded = np.zeros(n, dtype=np.bool_)  # `Odometry.ground` ran for it this step
+        self._maybe_due = True  # some robot's wheel factors may be due (else prepare needs not look)
+        self._no_rows = np.zeros(0, dtype=np.int64)
         self.ends = np.zeros((n, 3), dtype=np.int64)  # the last step's (reason code, truncated, success)
         self.motions = np.zeros((n, 20))  # the last step's `_drive` results of robots handed back
         self._no_movers = (np.zeros((0, 10)), np.zeros((0, 6)), np.zeros((0, 2)), np.zeros((0, 4)))
@@ -314,6 +325,7 @@ class EscapeBatch:
         if not odometry._exact:
             self.ground[i] = self._ground_of[i] = odometry._true_from_commanded
         self.istate[i] = (env.steps, 0, may_glide, 0)
+        self._maybe_due = True
         circumradius, margin, substeps, _ = env._glide
         self.shared[3], self.shared[4], self.ishared[0] = circumradius, margin, substeps
         a, (cos_a, sin_a) = env._odom_from_map, env._odom_from_map_cs
@@ -357,16 +369,25 @@ class EscapeBatch:
     def _hand_over_trajectory(self, i: int) -> None:
         t = int(self.istate[i, _TRAJ])
         if t:
-            self.envs[i].trajectory.extend(Pose(*p) for p in self.trajectory[i, :t].tolist())
+            self.envs[i].trajectory.extend(map(Pose._make, self.trajectory[i, :t].tolist()))
             self.istate[i, _TRAJ] = 0
 
     def _join(self, i: int, field: FloatArray, solid: FloatArray, seen: FloatArray, flags: np.ndarray | None) -> None:
-        """Hand the kernel robot i's episode's field and segments (one tuple entry per robot)."""
-        parts = (field, solid, seen, self._no_flags if flags is None else flags)
-        for tuple_name, part in zip(("_fields", "_solid", "_seen", "_flags"), parts, strict=True):
-            current = getattr(self, tuple_name)
-            if current[i] is not part:
-                setattr(self, tuple_name, current[:i] + (part,) + current[i + 1 :])
+        """Put robot i's episode's field and segments in its slots (when they are new)."""
+        flags = np.zeros(0, dtype=np.bool_) if flags is None else flags
+        sources = (field, solid, seen, flags)
+        if len(self._sources[i]) == 4 and all(a is b for a, b in zip(sources, self._sources[i], strict=True)):
+            return
+        self._sources[i] = sources
+        self._fields = _room_for(self._fields, field.size)
+        self._solid = _room_for(self._solid, len(solid))
+        self._seen = _room_for(self._seen, len(seen))
+        self._flags = _room_for(self._flags, len(flags))
+        self._fields[i, : field.size] = field.ravel()
+        self._solid[i, : len(solid)] = solid
+        self._seen[i, : len(seen)] = seen
+        self._flags[i, : len(flags)] = flags
+        self._sizes[i] = (field.shape[0], field.shape[1], len(solid), len(seen), len(flags))
 
     # --- a step ------------------------------------------------------------------------------
     def prepare(self, rows: np.ndarray, everyone: bool) -> None:
@@ -376,6 +397,8 @@ class EscapeBatch:
         until = self.state[:, _UNTIL]
         if self._slips:
             due = rows
+        elif not self._maybe_due:
+            due = self._no_rows  # (none was due after the last step, and none came in since)
         elif everyone:
             due = np.flatnonzero(until <= 0.0)
         else:
@@ -389,10 +412,15 @@ class EscapeBatch:
             if m is not None and m is not self._ground_of[i]:  # (new factors, or slip)
                 self.ground[i] = m
                 self._ground_of[i] = m
-        if self._draws_noise:
-            draw, units = self._draw, self._unit_rows
-            for i in rows.tolist():
-                draw[i](out=units[i])  # the same draws as the robot's own `Lrf.scan`
+        if self._draws_noise:  # the same draws as the robot's own `Lrf.scan`
+            units = self._unit_rows
+            if everyone:
+                for draw, unit in zip(self._draw, units, strict=True):
+                    draw(out=unit)
+            else:
+                draw = self._draw
+                for i in rows.tolist():
+                    draw[i](out=units[i])
 
     def unit_row(self, i: int) -> FloatArray:
         """Robot i's uniforms for this step's scan (after `prepare`)."""
@@ -413,17 +441,27 @@ class EscapeBatch:
         what happened to each. Returns how many robots need their own env (see `_step_escape`)."""
         ends = self.ends
         ends[:] = 0
-        events, full = _step_escape(
-            rows, actions, self.ground, self.exact, self.state, self.istate, self.const, self._fields,
-            self._solid, self._seen, self._flags, self._outline, self._no_movers, self.bumps, self.shared, self.ishared,
+        events, full, due_next = _step_escape(
+            rows, actions, self.ground, self.exact, self.state, self.istate, self.const, self._fields, self._solid,
+            self._seen, self._flags, self._sizes, self._outline, self._no_movers, self.bumps, self.shared, self.ishared,
             self._beams, self.units, self._reading, self._exact_ranges, scans, odom32, info, ends, self.motions,
             self.trajectory, self.grounded, rewards, terminated, truncated,
         )  # fmt: skip
         self.last_scans = scans
+        self._maybe_due = due_next > 0
         if full:
             for i in rows[self.istate[rows, _TRAJ] >= _TRAJECTORY_ROOM].tolist():
                 self._hand_over_trajectory(i)
         return events
+
+
+def _room_for(slots: np.ndarray, size: int) -> np.ndarray:
+    """`slots` (one row per robot), with at least `size` entries a row (the rows kept)."""
+    if slots.shape[1] >= size:
+        return slots
+    grown = np.zeros((slots.shape[0], max(size, 2 * slots.shape[1]), *slots.shape[2:]), dtype=slots.dtype)
+    grown[:, : slots.shape[1]] = slots
+    return grown
 
 
 def escape_infos(
@@ -434,35 +472,39 @@ def escape_infos(
     dicts; None when a patch has other keys than the kernel's (the caller then batches every
     robot's dict). The value arrays are views of `info` (each a robot per entry, as gymnasium's)."""
     n = info.shape[1]
-    masks = iter(np.ones((16 + len(REWARD_TERMS) + len(KINDS), n), dtype=np.bool_))
-    reasons = np.full(n, None, dtype=object)  # (a robot whose episode ends has its own dict in `patches`)
-    terms: dict[str, Any] = {}
-    for k, name in enumerate(REWARD_TERMS):
-        terms[name] = info[10 + k]
-        terms[f"_{name}"] = next(masks)
-    kinds: dict[str, Any] = {}
+    m = np.ones((25, n), dtype=np.bool_)  # the masks: every robot has every key
     by_kind = batch.bumps_by_kind.T.copy()
-    for k, name in enumerate(KINDS):
-        kinds[name] = by_kind[k]
-        kinds[f"_{name}"] = next(masks)
+    terms = {
+        "progress": info[10], "_progress": m[0], "success": info[11], "_success": m[1],
+        "bump": info[12], "_bump": m[2], "time": info[13], "_time": m[3],
+        "proximity": info[14], "_proximity": m[4], "approach": info[15], "_approach": m[5],
+    }  # fmt: skip
+    kinds = {
+        "wall": by_kind[0], "_wall": m[6], "cabinet": by_kind[1], "_cabinet": m[7], "door": by_kind[2],
+        "_door": m[8], "box": by_kind[3], "_box": m[9], "mover": by_kind[4], "_mover": m[10],
+    }  # fmt: skip
     out = {
-        "pose": info[0:3].T,
-        "odom_error": info[3:6].T,
-        "bumps": batch.bumps.copy(),
-        "bumps_by_kind": kinds,
-        "clearance": info[6],
-        "min_clearance": info[7],
-        "sim_time": info[8],
-        "path_length": info[9],
-        "shortest_path_length": batch.const[:, 16].copy(),
-        "is_success": ends[:, 2].astype(np.bool_),
-        "termination_reason": reasons,
-        "reward_terms": terms,
-        "cost": info[16],
-        "geodesic_to_finish": info[17],
-    }
+        "pose": info[0:3].T, "_pose": m[11],
+        "odom_error": info[3:6].T, "_odom_error": m[12],
+        "bumps": batch.bumps.copy(), "_bumps": m[13],
+        "bumps_by_kind": kinds, "_bumps_by_kind": m[14],
+        "clearance": info[6], "_clearance": m[15],
+        "min_clearance": info[7], "_min_clearance": m[16],
+        "sim_time": info[8], "_sim_time": m[17],
+        "path_length": info[9], "_path_length": m[18],
+        "shortest_path_length": batch.const[:, 16].copy(), "_shortest_path_length": m[19],
+        "is_success": ends[:, 2].astype(np.bool_), "_is_success": m[20],
+        # (a robot whose episode ends has its own dict in `patches`)
+        "termination_reason": np.full(n, None, dtype=object), "_termination_reason": m[21],
+        "reward_terms": terms, "_reward_terms": m[22],
+        "cost": info[16], "_cost": m[23],
+        "geodesic_to_finish": info[17], "_geodesic_to_finish": m[24],
+    }  # fmt: skip
+    if not patches:
+        return out
+    keys = _INFO_KEYS
     for i, patch in patches.items():
-        if patch.keys() != out.keys():
+        if patch.keys() != keys:
             return None
         for key, value in patch.items():
             if key in ("reward_terms", "bumps_by_kind"):
@@ -473,8 +515,13 @@ def escape_infos(
                     nested[f"_{name}"][i] = there
             else:
                 out[key][i] = value
-    if patches and not any(terms[f"_{name}"].any() for name in REWARD_TERMS):
+    if not any(terms[f"_{name}"].any() for name in REWARD_TERMS):
         out["reward_terms"] = {}  # every robot has just been reset (an empty dict each)
-    for key in list(out):
-        out[f"_{key}"] = next(masks)
     return out
+
+
+# The keys of an escape robot's info (`PicoEnv._info` and `EscapeTask.info`), as `escape_infos` batches them.
+_INFO_KEYS = frozenset(
+    ("pose", "odom_error", "bumps", "bumps_by_kind", "clearance", "min_clearance", "sim_time", "path_length",
+     "shortest_path_length", "is_success", "termination_reason", "reward_terms", "cost", "geodesic_to_finish")
+)  # fmt: skip

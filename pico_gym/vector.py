@@ -129,6 +129,7 @@ class PicoVectorEnv(VectorEnv):
         # Escape robots step in one compiled call (`pico_gym.batched`).
         self._batch = EscapeBatch(self._envs) if isinstance(first.task, EscapeTask) and first._n_extras == 0 else None
         self._all = np.arange(num_envs)
+        self._batch_shape = (num_envs, 3)
 
     @property
     def envs(self) -> list[Any]:
@@ -233,7 +234,7 @@ class PicoVectorEnv(VectorEnv):
     ) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """Step every robot with its row of `actions` (an (num_envs, action size) array)."""
         actions = np.asarray(actions)
-        if self._batch is not None and actions.shape == (self.num_envs, 3) and np.isfinite(actions).all():
+        if self._batch is not None and actions.shape == self._batch_shape and np.isfinite(actions.sum()):
             obs, rewards, terminated, truncated, batched, final = self._step_batch(actions)
         else:
             obs, rewards, terminated, truncated, infos, final = self.step_each(actions)
