@@ -131,21 +131,3 @@ def test_lrf_ranges_follows_the_beams_it_is_given_not_the_last_ones() -> None:
     with pytest.raises(ValueError, match=r"\(N, 4\)"):
         lrf_ranges(pose, np.zeros(6), angles)
 
-
-def test_first_beam_is_searchsorted() -> None:
-    # The cast finds a segment's beams from where evenly spaced beams put them; it must answer
-    # what a binary search answers, on even beams, on uneven ones and at the beams themselves.
-    from pico_gym.sensors.lrf import _first_beam
-
-    rng = np.random.default_rng(0)
-    even = LrfConfig().beam_angles
-    uneven = np.sort(rng.uniform(-2.5, 2.5, 300))
-    bunched = np.concatenate([np.linspace(-2.0, -1.9, 200), np.linspace(1.0, 2.0, 5)])
-    for beams in (even, uneven, bunched, even[:1], even[:2]):
-        a_lo, a_hi = float(beams[0]), float(beams[-1])
-        probes = np.concatenate(
-            [rng.uniform(a_lo - 0.5, a_hi + 0.5, 2000), beams, np.nextafter(beams, 10), np.nextafter(beams, -10)]
-        )
-        for angle in probes.tolist():
-            for after, side in ((False, "left"), (True, "right")):
-                assert _first_beam(beams, angle, a_lo, a_hi, after) == np.searchsorted(beams, angle, side=side)

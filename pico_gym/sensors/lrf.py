@@ -225,28 +225,6 @@ _SORT_MIN_SEGMENTS = 32
 
 
 @njit
-def _first_beam(beam_angles: FloatArray, angle: float, a_lo: float, a_hi: float, after: bool) -> int:
-    """The first beam at or after `angle` (after=True: strictly after): `np.searchsorted`'s
-    answer ("left" or "right"), found from where evenly spaced beams put it and a few steps."""
-    n = beam_angles.shape[0]
-    k = 0
-    if angle > a_hi:
-        k = n
-    elif angle > a_lo and n > 1:
-        k = int((angle - a_lo) / (a_hi - a_lo) * (n - 1))
-    for _ in range(4):
-        if k > 0 and (beam_angles[k - 1] > angle or (not after and beam_angles[k - 1] == angle)):
-            k -= 1
-        elif k < n and (beam_angles[k] < angle or (after and beam_angles[k] == angle)):
-            k += 1
-        else:
-            return k
-    if after:  # beams far from even
-        return np.searchsorted(beam_angles, angle, side="right")
-    return np.searchsorted(beam_angles, angle, side="left")
-
-
-@njit
 def _cast_one(
     x1: float,
     y1: float,
@@ -281,8 +259,8 @@ def _cast_one(
         hi = start + shift + span + 1e-12
         if hi < a_lo or lo > a_hi:
             continue
-        i0 = _first_beam(beam_angles, lo, a_lo, a_hi, False)
-        i1 = _first_beam(beam_angles, hi, a_lo, a_hi, True)
+        i0 = np.searchsorted(beam_angles, lo, side="left")
+        i1 = np.searchsorted(beam_angles, hi, side="right")
         for i in range(i0, i1):
             if out[i] < bound:
                 continue  # occluded: this segment cannot be nearer
