@@ -40,6 +40,9 @@ from pico_gym.sensors.lrf import _cast, _noisy
 from pico_gym.tasks.escape import EscapeTask
 from pico_gym.types import FloatArray, Segments
 
+Obs = dict[str, np.ndarray]
+Finals = dict[int, tuple[Obs, dict[str, Any]]]  # robot -> (final observation, final info)
+
 
 @njit
 def _scan_batch(
@@ -253,14 +256,7 @@ class PicoVectorEnv(VectorEnv):
 
     def _step_batch(
         self, actions: np.ndarray
-    ) -> tuple[
-        dict[str, np.ndarray],
-        np.ndarray,
-        np.ndarray,
-        np.ndarray,
-        dict[str, Any],
-        dict[int, tuple[dict[str, np.ndarray], dict[str, Any]]],
-    ]:
+    ) -> tuple[Obs, np.ndarray, np.ndarray, np.ndarray, dict[str, Any], Finals]:
         """`step` with the escape robots in one compiled call (`pico_gym.batched`); robots the
         batch does not take, and steps it hands back (a possible contact), go through their envs."""
         n = self.num_envs
@@ -292,7 +288,7 @@ class PicoVectorEnv(VectorEnv):
                 if not batch.live[i]:
                     others.append(i)
             rows = np.flatnonzero(batch.live & stepping)
-        final: dict[int, tuple[dict[str, np.ndarray], dict[str, Any]]] = {}
+        final: Finals = {}
         ends, motions = batch.ends, batch.motions
         events: list[int] = []
         if len(rows):
@@ -351,14 +347,7 @@ class PicoVectorEnv(VectorEnv):
 
     def step_each(
         self, actions: np.ndarray
-    ) -> tuple[
-        dict[str, np.ndarray],
-        np.ndarray,
-        np.ndarray,
-        np.ndarray,
-        list[dict[str, Any]],
-        dict[int, tuple[dict[str, np.ndarray], dict[str, Any]]],
-    ]:
+    ) -> tuple[Obs, np.ndarray, np.ndarray, np.ndarray, list[dict[str, Any]], Finals]:
         """`step` with each robot's info as its own dict (what Stable-Baselines3's VecEnv hands
         on), and, in SAME_STEP mode, {robot: (final observation, final info)} of the episodes
         that ended (the batch holds the next episode's first observation)."""
@@ -382,7 +371,7 @@ class PicoVectorEnv(VectorEnv):
             stepped.append(i)
             moves.append(env._act(actions[i]))
         self._scan(stepped, scans)
-        final: dict[int, tuple[dict[str, np.ndarray], dict[str, Any]]] = {}
+        final: Finals = {}
         for i, moved in zip(stepped, moves, strict=True):
             env = self._envs[i]
             obs, rewards[i], terminated[i], truncated[i], infos[i] = env._judge(moved)
