@@ -297,46 +297,34 @@ class PicoVectorEnv(VectorEnv):
                 events = np.flatnonzero(ends[:, 0] | ends[:, 1]).tolist()
         else:
             ends[:] = 0
-        for i in events:
+        ends[others] = 0  # not stepped by the batch: no verdict of its (a row may hold an old one)
+        for i in events + others:
+            env = envs[i]
             code = int(ends[i, 0])
-            if code < 0:  # a contact is possible: the physics steps it, in the robot's own env
+            if code > 0 or ends[i, 1]:  # the episode ended in the batch
                 batch.sync_out(i)
-                env = envs[i]
-                moved = env._moved(tuple(motions[i].tolist()), _NO_EXTRAS)
-                scans[i] = env.lrf.read(env._pose, env._seen, batch.unit_row(i), env._movers, env._one_sided)
-                env._sense(scans[i])
-                obs, rewards[i], terminated[i], truncated[i], patches[i] = env._judge(moved)
-                odom[i] = obs["odom"]
-                ends[i] = 0
-            else:  # the episode ended
-                batch.sync_out(i)
-                env = envs[i]
                 env._finished = True
                 terms = dict(zip(REWARD_TERMS, values[10:16, i].tolist(), strict=True))
                 reason = REASONS[code] if code > 0 else "timeout"
                 patches[i] = env._info(terms, reason, bool(ends[i, 2]), float(values[16, i]))
-            if terminated[i] or truncated[i]:
-                if next_step:
-                    self._autoreset[i] = True
-                else:
-                    final[i] = ({"lrf": scans[i].copy(), "odom": odom[i].copy()}, patches[i])
-                    obs, patches[i] = envs[i].reset()
-                    scans[i], odom[i] = obs["lrf"], obs["odom"]
-            batch.sync_in(i)
-        for i in others:  # not the batch's: as `step_each` steps them
-            env = envs[i]
-            moved = env._act(actions[i])
-            scans[i] = env.lrf.scan(env._pose, env._seen, env.np_random, env._movers, env._one_sided)
-            env._sense(scans[i])
-            obs, rewards[i], terminated[i], truncated[i], patches[i] = env._judge(moved)
-            odom[i] = obs["odom"]
-            if terminated[i] or truncated[i]:
-                if next_step:
-                    self._autoreset[i] = True
-                else:
-                    final[i] = ({"lrf": scans[i].copy(), "odom": odom[i].copy()}, patches[i])
-                    obs, patches[i] = env.reset()
-                    scans[i], odom[i] = obs["lrf"], obs["odom"]
+            else:
+                if code < 0:  # a contact is possible: the physics steps it, in the robot's own env
+                    batch.sync_out(i)
+                    moved = env._moved(tuple(motions[i].tolist()), _NO_EXTRAS)
+                    scans[i] = env.lrf.read(env._pose, env._seen, batch.unit_row(i), env._movers, env._one_sided)
+                    ends[i] = 0
+                else:  # not the batch's: as `step_each` steps it
+                    moved = env._act(actions[i])
+                    scans[i] = env.lrf.scan(env._pose, env._seen, env.np_random, env._movers, env._one_sided)
+                env._sense(scans[i])
+                obs, rewards[i], terminated[i], truncated[i], patches[i] = env._judge(moved)
+                odom[i] = obs["odom"]
+            if (terminated[i] or truncated[i]) and not next_step:
+                final[i] = ({"lrf": scans[i].copy(), "odom": odom[i].copy()}, patches[i])
+                obs, patches[i] = env.reset()
+                scans[i], odom[i] = obs["lrf"], obs["odom"]
+            elif terminated[i] or truncated[i]:
+                self._autoreset[i] = True
             batch.sync_in(i)
         batched = escape_infos(values, ends, batch, patches)
         if batched is None:  # some robot's info has other keys: batch every robot's own

@@ -130,4 +130,3 @@ def test_lrf_ranges_follows_the_beams_it_is_given_not_the_last_ones() -> None:
     assert lrf_ranges(pose, room, angles) == pytest.approx(brute_force(pose, room, angles, 10.0), abs=1e-9)
     with pytest.raises(ValueError, match=r"\(N, 4\)"):
         lrf_ranges(pose, np.zeros(6), angles)
-

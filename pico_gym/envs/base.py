@@ -86,14 +86,23 @@ def _drive(
     theta = remainder(angle, TWO_PI)
     moved = hypot(x - px, y - py)
     turned = abs(compiled_wrap(theta - ptheta))
-    clearance = footprint_clearance(x, y, theta, outline, solid, cap)
-    room = clearance
-    if state.shape[0] > 0:
-        to_movers = footprint_clearance(x, y, theta, outline, edges, cap)
-        room = min(clearance, to_movers - mover_speed * dt)
-        clearance = min(clearance, to_movers)
+    clearance, room = _clearance_and_room(x, y, theta, outline, solid, edges, mover_speed * dt, cap)
     pose = (x, y, angle, velocity_x, velocity_y, theta, moved, turned, clearance, room)
     return glided, vx, vy, w, tvx, tvy, tw, ox, oy, otheta, *pose
+
+
+@njit
+def _clearance_and_room(
+    x: float, y: float, theta: float, outline: FloatArray, solid: Segments, movers: Segments, reach: float, cap: float
+) -> tuple[float, float]:
+    """The footprint's clearance to everything solid (capped), and the room the next step has
+    before anything can touch it: the clearance to the static geometry, and to the movers' edges
+    (no rows: none) less how far they may come in one step (`reach`)."""
+    clearance = footprint_clearance(x, y, theta, outline, solid, cap)
+    if movers.shape[0] == 0:
+        return clearance, clearance
+    to_movers = footprint_clearance(x, y, theta, outline, movers, cap)
+    return min(clearance, to_movers), min(clearance, to_movers - reach)
 
 
 class _Moved(NamedTuple):
@@ -439,12 +448,11 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         step has before anything can touch it: the clearance to static geometry, and to the
         movers less how far they may come in one step."""
         x, y, th = pose
-        clearance = float(geometry.footprint_clearance(x, y, th, self._outline, self._solid, CLEARANCE_CAP_M))
-        self._room = clearance
-        if self._movers is not None:
-            to_movers = float(geometry.footprint_clearance(x, y, th, self._outline, self._movers, CLEARANCE_CAP_M))
-            self._room = min(clearance, to_movers - self._mover_speed * self.config.dt_s)
-            clearance = min(clearance, to_movers)
+        movers = _NO_MOVERS[3] if self._movers is None else self._movers
+        reach = self._mover_speed * self.config.dt_s
+        clearance, self._room = _clearance_and_room(
+            x, y, th, self._outline, self._solid, movers, reach, CLEARANCE_CAP_M
+        )
         return clearance
 
     def _observation(self) -> dict[str, np.ndarray]:
