@@ -29,7 +29,8 @@ import numpy as np
 
 from pico_gym.agents.base import RobotSpec
 from pico_gym.agents.classic.hospital import HospitalAgent, HospitalAgentConfig, State
-from pico_gym.agents.shield import ScanMemory
+from pico_gym.agents.classic.potential_field import keep_in_view
+from pico_gym.agents.shield import ScanMemory, SeenFree, blind_turn
 from pico_gym.overlay import Overlay
 from pico_gym.types import FloatArray
 from pico_gym.wrappers import LearningConfig, LearningEncoder, encode_goal, rescale_action, unit_action
@@ -57,18 +58,27 @@ class HybridConfig:
             (to the next cabinet), the classic part drives the rest of that leg. A policy that
             heads for a gap the shield will not let it through goes back after every recovery; the
             classic part marks the spot it got stuck at and plans around it. 0: never.
+        blind_turn: with the shield, a turn that would swing the footprint's rear out of its
+            turning circle into the LRF's blind sector while the robot translates is cut until it
+            does not (`pico_gym.agents.shield.blind_turn`): driving sideways at the edge of the
+            view and turning towards that side, the rear corner meets what comes from behind, which
+            the robot may never have seen (the policy and the classic part both backed sideways
+            into boxes and standing people so).
     """
 
     lookahead_m: float = 1.0
     shield: bool = True
     blind_memory_s: float = 4.0
     fallback_after: int = 2
+    blind_turn: bool = True
 
     def __post_init__(self) -> None:
         if not (isinstance(self.lookahead_m, (int, float)) and 0.1 <= self.lookahead_m <= 5.0):
             raise ValueError(f"HybridConfig.lookahead_m must be in [0.1, 5] m, got {self.lookahead_m!r}")
         if not isinstance(self.shield, bool):
             raise ValueError(f"HybridConfig.shield must be true or false, got {self.shield!r}")
+        if not isinstance(self.blind_turn, bool):
+            raise ValueError(f"HybridConfig.blind_turn must be true or false, got {self.blind_turn!r}")
         if not (isinstance(self.blind_memory_s, (int, float)) and 0.0 <= self.blind_memory_s <= 10.0):
             raise ValueError(f"HybridConfig.blind_memory_s must be in [0, 10] s, got {self.blind_memory_s!r}")
         if not (isinstance(self.fallback_after, int) and not isinstance(self.fallback_after, bool)) or not (
@@ -149,6 +159,7 @@ class HybridAgent(HospitalAgent):
                 f"robot's LRF ({spec.lrf.n_beams} beams) gives {self.encoder.space.shape}"
             )
         self._low, self._high = spec.robot.action_low, spec.robot.action_high
+        self._view = (spec.lrf.angle_min_rad, spec.lrf.angle_max_rad)
 
     def reset(self, obs: dict[str, np.ndarray], info: dict[str, Any] | None = None) -> None:
         super().reset(obs, info)
@@ -157,6 +168,17 @@ class HybridAgent(HospitalAgent):
         self.command = (0.0, 0.0, 0.0)
         self.waypoint: FloatArray | None = None
         self._memory = ScanMemory(self.hybrid.blind_memory_s, self.spec.dt_s)
+        lrf = self.spec.lrf
+        self._seen_free = SeenFree(
+            self.hybrid.blind_memory_s,
+            self.spec.dt_s,
+            lrf.angle_min_rad,
+            lrf.angle_max_rad,
+            lrf.range_min_m,
+            lrf.range_max_m,
+            self.motion.half_depth,
+            self.motion.half_width,
+        )
         self._leg = 0  # the cabinet the recoveries below were counted for
         self._recoveries = 0  # recoveries the policy's driving ended in on this leg
         self._drove = False  # the policy drove the last step
@@ -176,6 +198,7 @@ class HybridAgent(HospitalAgent):
     def _sense(self, obs: dict[str, np.ndarray]) -> FloatArray:
         near = super()._sense(obs)
         self._memory.add(self._scan_robot, self._odom)
+        self._seen_free.add(np.asarray(obs["lrf"], dtype=np.float64), self._odom)
         return near
 
     def _remembered(self) -> FloatArray:
@@ -218,6 +241,15 @@ class HybridAgent(HospitalAgent):
     def finish(self, command: tuple[float, float, float]) -> np.ndarray:
         """A command (the policy's or the classic part's) as the action: shielded or not."""
         if self.hybrid.shield or self.state is not State.NAVIGATE:
+            if self.hybrid.blind_turn:
+                vx, vy = keep_in_view(np.array(command[:2]), self.motion)
+                w = blind_turn(
+                    (float(vx), float(vy), command[2]),
+                    self.motion,
+                    *self._view,
+                    seen_free=lambda pts: self._seen_free.free(pts, self._odom),
+                )
+                command = (float(vx), float(vy), w)
             return self._finish(self._near, command)
         return np.array([*command, -1.0] if self.announce else command, dtype=np.float32)
 

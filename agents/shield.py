@@ -13,9 +13,11 @@ from __future__ import annotations
 
 import math
 from collections import deque
+from collections.abc import Callable
 
 import numpy as np
 
+from pico_gym.agents.classic.potential_field import MotionConfig
 from pico_gym.types import FloatArray, Pose
 
 # Points farther than this from the robot cannot matter to the filter within its horizon [m].
@@ -60,3 +62,148 @@ class ScanMemory:
         d = d[(np.abs(d[:, 0]) < REACH_M) & (np.abs(d[:, 1]) < REACH_M)]
         c, s = math.cos(odom.theta), math.sin(odom.theta)
         return np.column_stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]])
+
+
+class SeenFree:
+    """Where the last `seconds` of scans saw free space, and where the robot itself was: a point
+    is seen free when a kept scan had a beam through it that ended beyond it (by
+    `SEEN_FREE_SLACK_M`), or when it lies in the footprint at a kept pose (what the robot just
+    drove through; the rear corners' sweep mostly lies there). Scans are kept every `every`
+    steps with their odometry pose, poses every step.
+
+    Args:
+        seconds: how long a scan is kept.
+        dt_s: the control period (one scan per step).
+        angle_min_rad, angle_max_rad, range_min_m, range_max_m: the LRF's.
+        half_depth_m, half_width_m: the footprint, a rectangle round the robot's origin.
+        every: keep every `every`-th scan.
+    """
+
+    def __init__(
+        self,
+        seconds: float,
+        dt_s: float,
+        angle_min_rad: float,
+        angle_max_rad: float,
+        range_min_m: float,
+        range_max_m: float,
+        half_depth_m: float,
+        half_width_m: float,
+        every: int = 2,
+    ) -> None:
+        if not (math.isfinite(seconds) and seconds >= 0.0):
+            raise ValueError(f"SeenFree seconds must be >= 0, got {seconds!r}")
+        self.every = every
+        self._lo, self._hi = angle_min_rad, angle_max_rad
+        self._rmin, self._rmax = range_min_m, range_max_m
+        n = max(int(round(seconds / dt_s)) // every, 1)
+        self._scans: deque[tuple[FloatArray, Pose]] = deque(maxlen=n)
+        self._half = (half_depth_m, half_width_m)
+        self._poses: deque[tuple[float, float, float, float]] = deque(maxlen=max(int(round(seconds / dt_s)), 1))
+        self._count = 0
+
+    def reset(self) -> None:
+        self._scans.clear()
+        self._poses.clear()
+        self._count = 0
+
+    def add(self, ranges: FloatArray, odom: Pose) -> None:
+        """Keep a scan (every `every`-th call): a beam without a return is free to the LRF's
+        range, one below its minimum range shows nothing."""
+        self._count += 1
+        self._poses.append((odom.x, odom.y, math.cos(odom.theta), math.sin(odom.theta)))
+        if (self._count - 1) % self.every:
+            return
+        r = np.where(np.isfinite(ranges), ranges, self._rmax)
+        r = np.where(r < self._rmin, 0.0, np.minimum(r, self._rmax))
+        # A beam's neighbours bound what lies between them: keep the nearest of the three.
+        near = np.minimum(r, np.minimum(np.roll(r, 1), np.roll(r, -1)))
+        near[0], near[-1] = min(r[0], r[1]), min(r[-1], r[-2])
+        self._scans.append((near, odom))
+
+    def free(self, points: FloatArray, odom: Pose) -> FloatArray:
+        """For robot-frame points of the robot at `odom`: whether a kept scan saw each free."""
+        out = np.zeros(len(points), dtype=bool)
+        if not self._scans:
+            return out
+        c, s = math.cos(odom.theta), math.sin(odom.theta)
+        wx = odom.x + c * points[:, 0] - s * points[:, 1]
+        wy = odom.y + s * points[:, 0] + c * points[:, 1]
+        for ranges, at in self._scans:
+            dx, dy = wx - at.x, wy - at.y
+            bearing = np.arctan2(dy, dx) - at.theta
+            bearing = (bearing + math.pi) % (2.0 * math.pi) - math.pi
+            n = len(ranges)
+            k = np.rint((bearing - self._lo) / (self._hi - self._lo) * (n - 1)).astype(np.int64)
+            inside = (k >= 0) & (k < n)
+            k = np.clip(k, 0, n - 1)
+            out |= inside & (np.hypot(dx, dy) + SEEN_FREE_SLACK_M < ranges[k])
+        if self._poses and not out.all():
+            p = np.array(self._poses)  # x, y, cos, sin per kept pose
+            dx, dy = wx[:, None] - p[:, 0], wy[:, None] - p[:, 1]
+            along, across = p[:, 2] * dx + p[:, 3] * dy, -p[:, 3] * dx + p[:, 2] * dy
+            out |= ((np.abs(along) < self._half[0]) & (np.abs(across) < self._half[1])).any(axis=1)
+        return out
+
+
+# A point is seen free when a beam through it ended at least this much beyond it [m].
+SEEN_FREE_SLACK_M = 0.05
+
+
+def blind_turn(
+    command: tuple[float, float, float],
+    cfg: MotionConfig,
+    angle_min_rad: float,
+    angle_max_rad: float,
+    seen_free: Callable[[FloatArray], FloatArray] | None = None,
+) -> float:
+    """The command's turn rate, cut (to 1/2, 1/4, 0) until no rear part of the footprint moves
+    out of the robot's turning circle into the LRF's blind sector within the filter's horizon.
+
+    Translating sideways (at the edge of the LRF's view, where `keep_in_view` lets it go) while
+    turning towards that side swings the footprint's rear corner through space the robot has not
+    seen: in the robot's frame the world turns the other way, so whatever the corner meets comes
+    from behind. Neither the scan nor a memory of it can hold an obstacle that was never seen,
+    so the turn waits until the translation is done, unless `seen_free` (robot-frame points ->
+    whether each was recently seen free, e.g. `SeenFree.free`) vouches for where the rear goes.
+    A turn in place stays inside the turning circle and is left alone (the filter and
+    `safe_turn` keep it off what is known).
+    """
+    vx, vy, w = command
+    if w == 0.0 or (vx == 0.0 and vy == 0.0):
+        return w
+    hd, hw = cfg.half_depth, cfg.half_width
+    rear = np.array([[-hd, -hw], [-hd, 0.0], [-hd, hw], [0.0, -hw], [0.0, hw]])
+    ring = math.hypot(hd, hw) + _RING_SLACK_M
+    for scale in (1.0, 0.5, 0.25):
+        if not _sweeps_blind(rear, vx, vy, w * scale, cfg.horizon, ring, angle_min_rad, angle_max_rad, seen_free):
+            return w * scale
+    return 0.0
+
+
+# A rear point's predicted position may leave the turning circle by this much (the linear
+# prediction's own error, and the sliver a translation at the view's edge sweeps) [m].
+_RING_SLACK_M = 0.02
+
+
+def _sweeps_blind(
+    points: FloatArray,
+    vx: float,
+    vy: float,
+    w: float,
+    horizon: float,
+    ring: float,
+    lo: float,
+    hi: float,
+    seen_free: Callable[[FloatArray], FloatArray] | None,
+) -> bool:
+    for f in (0.5, 1.0):
+        t = horizon * f
+        c, s = math.cos(w * t), math.sin(w * t)
+        x = c * points[:, 0] - s * points[:, 1] + vx * t
+        y = s * points[:, 0] + c * points[:, 1] + vy * t
+        bearing = np.arctan2(y, x)
+        blind = (np.hypot(x, y) > ring) & ((bearing < lo) | (bearing > hi))
+        if blind.any() and (seen_free is None or not seen_free(np.column_stack([x[blind], y[blind]])).all()):
+            return True
+    return False

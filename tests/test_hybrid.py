@@ -12,9 +12,12 @@ import pico_gym  # noqa: F401
 from pico_gym.agents import make_agent
 from pico_gym.agents.base import RobotSpec
 from pico_gym.agents.classic.hospital import State
+from pico_gym.agents.classic.potential_field import MotionConfig
 from pico_gym.agents.hybrid import HybridAgent, HybridConfig, waypoint_along
 from pico_gym.agents.mlp import MlpActor
+from pico_gym.agents.shield import SeenFree, blind_turn
 from pico_gym.train.hybrid import HybridTraining
+from pico_gym.types import Pose
 from pico_gym.wrappers import LearningConfig, LearningEncoder
 
 LEARNING = LearningConfig(n_sectors=64, frame_stack=2, memory_sectors=36, range_scale="log", point_goal=True)
@@ -166,3 +169,37 @@ def test_the_classic_part_drives_the_rest_of_a_leg_the_policy_got_stuck_on(tmp_p
                 break
         assert recoveries >= 2
         assert (classic_navigating >= 20) is classic_drives
+
+
+MOTION = MotionConfig()  # PICO: 0.2 m deep, 0.4 m wide, 0.35 s horizon
+
+
+def test_the_turn_is_cut_when_the_rear_would_swing_into_unseen_space() -> None:
+    """Backing sideways at the edge of the view while turning towards that side swings the rear
+    corner through the blind sector (the dev bumps); turning the other way, driving forward or
+    turning in place do not, and the turn is kept."""
+    lo, hi = -2.0, 2.0
+    assert blind_turn((-0.15, -0.5, -1.2), MOTION, lo, hi) == 0.0
+    assert blind_turn((-0.15, 0.5, 1.2), MOTION, lo, hi) == 0.0  # the mirror image
+    assert blind_turn((0.0, -0.5, -1.2), MOTION, lo, hi) == -0.6  # half the turn keeps the rear in view
+    for command in [(0.5, 0.0, 1.2), (0.5, 0.0, -1.2), (0.0, 0.0, 1.2), (0.3, -0.4, -1.2), (-0.15, -0.5, 0.0)]:
+        assert blind_turn(command, MOTION, lo, hi) == command[2]
+    # Where the rear goes was seen free: the turn is kept.
+    assert blind_turn((-0.15, -0.5, -1.2), MOTION, lo, hi, seen_free=lambda p: np.ones(len(p), bool)) == -1.2
+    assert blind_turn((-0.15, -0.5, -1.2), MOTION, lo, hi, seen_free=lambda p: np.zeros(len(p), bool)) == 0.0
+
+
+def test_seen_free_is_what_a_beam_passed_or_the_robot_stood_on() -> None:
+    """A beam that ended at 2 m vouches for the points before it (not near its end, nor past
+    it, nor outside the LRF's view); the footprint at a kept pose vouches for what it covered;
+    after `seconds` both are forgotten."""
+    seen = SeenFree(1.0, 0.1, -2.0, 2.0, 0.01, 10.0, 0.1, 0.2, every=1)
+    ranges = np.full(1000, 2.0)
+    seen.add(ranges, Pose(0.0, 0.0, 0.0))
+    # The robot has since turned round on the spot: what was ahead is now behind it.
+    now = Pose(0.0, 0.0, np.pi)
+    ahead = np.array([[-1.0, 0.0], [-1.98, 0.0], [-2.5, 0.0], [1.0, 0.0], [0.05, 0.1], [-0.5, -0.5], [0.5, 0.5]])
+    assert seen.free(ahead, now).tolist() == [True, False, False, False, True, True, False]
+    for _ in range(10):
+        seen.add(np.zeros(1000), now)  # nothing returned below the minimum range: shows nothing
+    assert seen.free(ahead, now).tolist() == [False, False, False, False, True, False, False]
