@@ -30,7 +30,7 @@ import numpy as np
 from pico_gym.agents.base import RobotSpec
 from pico_gym.agents.classic.hospital import HospitalAgent, HospitalAgentConfig, State
 from pico_gym.agents.classic.potential_field import keep_in_view
-from pico_gym.agents.shield import ScanMemory, SeenFree, blind_turn
+from pico_gym.agents.shield import ScanMemory, SeenFree, blind_translation, blind_turn
 from pico_gym.overlay import Overlay
 from pico_gym.types import FloatArray
 from pico_gym.wrappers import LearningConfig, LearningEncoder, encode_goal, rescale_action, unit_action
@@ -64,6 +64,11 @@ class HybridConfig:
             view and turning towards that side, the rear corner meets what comes from behind, which
             the robot may never have seen (the policy and the classic part both backed sideways
             into boxes and standing people so).
+        blind_translation: with `blind_turn`, a translation that would move the footprint's
+            rear out of the footprint into the blind sector, into space no recent scan saw free,
+            is cut until it does not (`pico_gym.agents.shield.blind_translation`): the direction
+            of travel is in view, the rear corner that leads is not (a person who walked up
+            behind a robot standing still was backed into so).
     """
 
     lookahead_m: float = 1.0
@@ -71,6 +76,7 @@ class HybridConfig:
     blind_memory_s: float = 4.0
     fallback_after: int = 2
     blind_turn: bool = True
+    blind_translation: bool = True
 
     def __post_init__(self) -> None:
         if not (isinstance(self.lookahead_m, (int, float)) and 0.1 <= self.lookahead_m <= 5.0):
@@ -79,6 +85,8 @@ class HybridConfig:
             raise ValueError(f"HybridConfig.shield must be true or false, got {self.shield!r}")
         if not isinstance(self.blind_turn, bool):
             raise ValueError(f"HybridConfig.blind_turn must be true or false, got {self.blind_turn!r}")
+        if not isinstance(self.blind_translation, bool):
+            raise ValueError(f"HybridConfig.blind_translation must be true or false, got {self.blind_translation!r}")
         if not (isinstance(self.blind_memory_s, (int, float)) and 0.0 <= self.blind_memory_s <= 10.0):
             raise ValueError(f"HybridConfig.blind_memory_s must be in [0, 10] s, got {self.blind_memory_s!r}")
         if not (isinstance(self.fallback_after, int) and not isinstance(self.fallback_after, bool)) or not (
@@ -243,13 +251,13 @@ class HybridAgent(HospitalAgent):
         if self.hybrid.shield or self.state is not State.NAVIGATE:
             if self.hybrid.blind_turn:
                 vx, vy = keep_in_view(np.array(command[:2]), self.motion)
-                w = blind_turn(
-                    (float(vx), float(vy), command[2]),
-                    self.motion,
-                    *self._view,
-                    seen_free=lambda pts: self._seen_free.free(pts, self._odom),
-                )
-                command = (float(vx), float(vy), w)
+                seen_free = lambda pts: self._seen_free.free(pts, self._odom)  # noqa: E731
+                # First, so that a turn in place is left to the filter; while navigating only: a
+                # robot boxed in (yielding, recovering) must be free to edge out.
+                if self.hybrid.blind_translation and self.state is State.NAVIGATE:
+                    vx, vy = blind_translation((vx, vy, command[2]), self.motion, *self._view, seen_free=seen_free)
+                twist = (float(vx), float(vy), command[2])
+                command = (twist[0], twist[1], blind_turn(twist, self.motion, *self._view, seen_free=seen_free))
             return self._finish(self._near, command)
         return np.array([*command, -1.0] if self.announce else command, dtype=np.float32)
 

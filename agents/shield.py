@@ -181,6 +181,55 @@ def blind_turn(
     return 0.0
 
 
+def blind_translation(
+    command: tuple[float, float, float],
+    cfg: MotionConfig,
+    angle_min_rad: float,
+    angle_max_rad: float,
+    seen_free: Callable[[FloatArray], FloatArray] | None = None,
+) -> tuple[float, float]:
+    """The command's translation, cut (to 1/2, 1/4, 0) until no rear part of the footprint
+    moves out of the footprint into the LRF's blind sector within the filter's horizon, unless
+    `seen_free` vouches for where it goes.
+
+    `keep_in_view` lets the robot translate up to its visible bearing (about 106 degrees): the
+    direction of travel is in view, but the rear corner leads and sweeps space behind the view.
+    A person who walked up behind a robot that stood still is there and was never seen. The
+    turn is left to `blind_turn`.
+    """
+    vx, vy, _ = command
+    if vx == 0.0 and vy == 0.0:
+        return vx, vy
+    hd, hw = cfg.half_depth, cfg.half_width
+    rear = np.array([[-hd, -hw], [-hd, 0.0], [-hd, hw], [0.0, -hw], [0.0, hw]])
+    view = (angle_min_rad, angle_max_rad)
+    for scale in (1.0, 0.5, 0.25):
+        if not _leaves_blind(rear, vx * scale, vy * scale, cfg.horizon, (hd, hw), view, seen_free):
+            return vx * scale, vy * scale
+    return 0.0, 0.0
+
+
+def _leaves_blind(
+    points: FloatArray,
+    vx: float,
+    vy: float,
+    horizon: float,
+    half: tuple[float, float],
+    view: tuple[float, float],
+    seen_free: Callable[[FloatArray], FloatArray] | None,
+) -> bool:
+    (hd, hw), (lo, hi) = half, view
+    for f in (0.5, 1.0):
+        x = points[:, 0] + vx * horizon * f
+        y = points[:, 1] + vy * horizon * f
+        bearing = np.arctan2(y, x)
+        out = (np.abs(x) > hd + _RING_SLACK_M) | (np.abs(y) > hw + _RING_SLACK_M)
+        blind = out & ((bearing < lo) | (bearing > hi))
+        if blind.any() and (seen_free is None or not seen_free(np.column_stack([x[blind], y[blind]])).all()):
+            return True
+    return False
+
+
 # A rear point's predicted position may leave the turning circle by this much (the linear
 # prediction's own error, and the sliver a translation at the view's edge sweeps) [m].
 _RING_SLACK_M = 0.02
