@@ -15,7 +15,7 @@ from pico_gym.agents.classic.hospital import State
 from pico_gym.agents.classic.potential_field import MotionConfig
 from pico_gym.agents.hybrid import HybridAgent, HybridConfig, waypoint_along
 from pico_gym.agents.mlp import MlpActor
-from pico_gym.agents.shield import SeenFree, blind_turn
+from pico_gym.agents.shield import SeenFree, blind_translation, blind_turn
 from pico_gym.train.hybrid import HybridTraining
 from pico_gym.types import Pose
 from pico_gym.wrappers import LearningConfig, LearningEncoder
@@ -187,6 +187,21 @@ def test_the_turn_is_cut_when_the_rear_would_swing_into_unseen_space() -> None:
     # Where the rear goes was seen free: the turn is kept.
     assert blind_turn((-0.15, -0.5, -1.2), MOTION, lo, hi, seen_free=lambda p: np.ones(len(p), bool)) == -1.2
     assert blind_turn((-0.15, -0.5, -1.2), MOTION, lo, hi, seen_free=lambda p: np.zeros(len(p), bool)) == 0.0
+
+
+def test_a_translation_is_cut_when_the_leading_rear_corner_would_enter_unseen_space() -> None:
+    """Backing sideways at the view's edge leads with the rear corner through the blind sector
+    (a person who walked up behind was backed into so): cut unless that space was seen free.
+    Forward, sideways within view and a creep within the slack are kept; the turn is not
+    this function's."""
+    lo, hi = -2.0, 2.0
+    assert blind_translation((-0.12, -0.43, 0.0), MOTION, lo, hi) == (0.0, 0.0)
+    assert blind_translation((-0.12, 0.43, 0.0), MOTION, lo, hi) == (0.0, 0.0)  # the mirror image
+    assert blind_translation((-0.5, 0.0, 0.0), MOTION, lo, hi) == (0.0, 0.0)  # straight back
+    for command in [(0.5, 0.0, 0.0), (0.3, -0.4, 0.0), (0.0, 0.25, 0.0), (-0.05, 0.0, 0.0), (0.0, -0.5, 1.2)]:
+        assert blind_translation(command, MOTION, lo, hi) == command[:2]
+    free = lambda p: np.ones(len(p), bool)  # noqa: E731
+    assert blind_translation((-0.12, -0.43, 0.0), MOTION, lo, hi, seen_free=free) == (-0.12, -0.43)
 
 
 def test_seen_free_is_what_a_beam_passed_or_the_robot_stood_on() -> None:
