@@ -69,6 +69,11 @@ class HybridConfig:
             is cut until it does not (`pico_gym.agents.shield.blind_translation`): the direction
             of travel is in view, the rear corner that leads is not (a person who walked up
             behind a robot standing still was backed into so).
+        blind_near_m: if > 0, the two cuts apply only while the evidence holds something the map
+            does not show within this distance (a square) of the robot. The cuts cost time (dev
+            generated hospitals 200-229: mean 55.8 s without them, 67.0 s with them, 58.3 s with
+            1.5 m), but a person who walks up behind is in no evidence (dev busy 2019 800-999:
+            0.5 % bumps with the cuts always, 2.0 % with 1.5 m). 0 (default): always.
     """
 
     lookahead_m: float = 1.0
@@ -77,6 +82,7 @@ class HybridConfig:
     fallback_after: int = 2
     blind_turn: bool = True
     blind_translation: bool = True
+    blind_near_m: float = 0.0
 
     def __post_init__(self) -> None:
         if not (isinstance(self.lookahead_m, (int, float)) and 0.1 <= self.lookahead_m <= 5.0):
@@ -85,6 +91,8 @@ class HybridConfig:
             raise ValueError(f"HybridConfig.shield must be true or false, got {self.shield!r}")
         if not isinstance(self.blind_turn, bool):
             raise ValueError(f"HybridConfig.blind_turn must be true or false, got {self.blind_turn!r}")
+        if not (isinstance(self.blind_near_m, (int, float)) and 0.0 <= self.blind_near_m <= 10.0):
+            raise ValueError(f"HybridConfig.blind_near_m must be in [0, 10] m, got {self.blind_near_m!r}")
         if not isinstance(self.blind_translation, bool):
             raise ValueError(f"HybridConfig.blind_translation must be true or false, got {self.blind_translation!r}")
         if not (isinstance(self.blind_memory_s, (int, float)) and 0.0 <= self.blind_memory_s <= 10.0):
@@ -249,7 +257,7 @@ class HybridAgent(HospitalAgent):
     def finish(self, command: tuple[float, float, float]) -> np.ndarray:
         """A command (the policy's or the classic part's) as the action: shielded or not."""
         if self.hybrid.shield or self.state is not State.NAVIGATE:
-            if self.hybrid.blind_turn:
+            if self.hybrid.blind_turn and self._cluttered():
                 vx, vy = keep_in_view(np.array(command[:2]), self.motion)
                 seen_free = lambda pts: self._seen_free.free(pts, self._odom)  # noqa: E731
                 # First, so that a turn in place is left to the filter; while navigating only: a
@@ -260,6 +268,21 @@ class HybridAgent(HospitalAgent):
                 command = (twist[0], twist[1], blind_turn(twist, self.motion, *self._view, seen_free=seen_free))
             return self._finish(self._near, command)
         return np.array([*command, -1.0] if self.announce else command, dtype=np.float32)
+
+    def _cluttered(self) -> bool:
+        """Whether the evidence holds anything the map does not show (a box, a person) within
+        `blind_near_m` of the robot; before localisation, always. A blind sweep can only meet
+        what the map does not show, and where nothing of that kind is near, it is not cut."""
+        radius = self.hybrid.blind_near_m
+        if not self.localised or radius <= 0.0:
+            return True
+        g = self.grid
+        rows, cols = g.shape
+        c0 = int((self.pose.x - radius - g.x0) / g.resolution)
+        c1 = int((self.pose.x + radius - g.x0) / g.resolution) + 1
+        r0 = int((self.pose.y - radius - g.y0) / g.resolution)
+        r1 = int((self.pose.y + radius - g.y0) / g.resolution) + 1
+        return bool(self.seen()[max(r0, 0) : min(r1, rows), max(c0, 0) : min(c1, cols)].any())
 
     def teacher(self) -> np.ndarray:
         """The classic part's own command this step, in the policy's [-1, 1] action units."""

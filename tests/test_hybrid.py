@@ -96,6 +96,10 @@ def test_a_policy_of_the_wrong_size_is_refused(tmp_path) -> None:  # type: ignor
 def test_hybrid_config_is_validated() -> None:
     with pytest.raises(ValueError, match="lookahead_m"):
         HybridConfig(lookahead_m=0.0)
+    with pytest.raises(ValueError, match="blind_near_m"):
+        HybridConfig(blind_near_m=-1.0)
+    with pytest.raises(ValueError, match="blind_translation"):
+        HybridConfig(blind_translation=1)  # type: ignore[arg-type]
 
 
 def test_the_hybrid_plays_the_hospital_only() -> None:
