@@ -150,6 +150,12 @@ class SeenFree:
 SEEN_FREE_SLACK_M = 0.05
 
 
+# A rear point's predicted position may leave the turning circle (`blind_turn`) or the
+# footprint (`blind_translation`) by this much: the linear prediction's own error, and the sliver
+# a translation at the view's edge sweeps [m].
+_RING_SLACK_M = 0.02
+
+
 def blind_turn(
     command: tuple[float, float, float],
     cfg: MotionConfig,
@@ -172,11 +178,14 @@ def blind_turn(
     vx, vy, w = command
     if w == 0.0 or (vx == 0.0 and vy == 0.0):
         return w
-    hd, hw = cfg.half_depth, cfg.half_width
-    rear = np.array([[-hd, -hw], [-hd, 0.0], [-hd, hw], [0.0, -hw], [0.0, hw]])
-    ring = math.hypot(hd, hw) + _RING_SLACK_M
+    ring = math.hypot(cfg.half_depth, cfg.half_width) + _RING_SLACK_M
+
+    def outside(x: FloatArray, y: FloatArray) -> FloatArray:
+        return np.hypot(x, y) > ring
+
+    view = (angle_min_rad, angle_max_rad)
     for scale in (1.0, 0.5, 0.25):
-        if not _sweeps_blind(rear, vx, vy, w * scale, cfg.horizon, ring, angle_min_rad, angle_max_rad, seen_free):
+        if not _rear_enters_unseen((vx, vy, w * scale), cfg, outside, view, seen_free):
             return w * scale
     return 0.0
 
@@ -200,59 +209,39 @@ def blind_translation(
     vx, vy, _ = command
     if vx == 0.0 and vy == 0.0:
         return vx, vy
-    hd, hw = cfg.half_depth, cfg.half_width
-    rear = np.array([[-hd, -hw], [-hd, 0.0], [-hd, hw], [0.0, -hw], [0.0, hw]])
+    hd, hw = cfg.half_depth + _RING_SLACK_M, cfg.half_width + _RING_SLACK_M
+
+    def outside(x: FloatArray, y: FloatArray) -> FloatArray:
+        return (np.abs(x) > hd) | (np.abs(y) > hw)
+
     view = (angle_min_rad, angle_max_rad)
     for scale in (1.0, 0.5, 0.25):
-        if not _leaves_blind(rear, vx * scale, vy * scale, cfg.horizon, (hd, hw), view, seen_free):
+        if not _rear_enters_unseen((vx * scale, vy * scale, 0.0), cfg, outside, view, seen_free):
             return vx * scale, vy * scale
     return 0.0, 0.0
 
 
-def _leaves_blind(
-    points: FloatArray,
-    vx: float,
-    vy: float,
-    horizon: float,
-    half: tuple[float, float],
+def _rear_enters_unseen(
+    twist: tuple[float, float, float],
+    cfg: MotionConfig,
+    outside: Callable[[FloatArray, FloatArray], FloatArray],
     view: tuple[float, float],
     seen_free: Callable[[FloatArray], FloatArray] | None,
 ) -> bool:
-    (hd, hw), (lo, hi) = half, view
+    """Whether a rear footprint point (rear corners, rear middle, side middles), moved by the
+    twist for half and all of the filter's horizon (p(t) = R(wt) p + v t), lies `outside` in the
+    blind sector (bearing beyond `view`) where `seen_free` does not vouch for it."""
+    vx, vy, w = twist
+    hd, hw = cfg.half_depth, cfg.half_width
+    rear = np.array([[-hd, -hw], [-hd, 0.0], [-hd, hw], [0.0, -hw], [0.0, hw]])
+    lo, hi = view
     for f in (0.5, 1.0):
-        x = points[:, 0] + vx * horizon * f
-        y = points[:, 1] + vy * horizon * f
-        bearing = np.arctan2(y, x)
-        out = (np.abs(x) > hd + _RING_SLACK_M) | (np.abs(y) > hw + _RING_SLACK_M)
-        blind = out & ((bearing < lo) | (bearing > hi))
-        if blind.any() and (seen_free is None or not seen_free(np.column_stack([x[blind], y[blind]])).all()):
-            return True
-    return False
-
-
-# A rear point's predicted position may leave the turning circle by this much (the linear
-# prediction's own error, and the sliver a translation at the view's edge sweeps) [m].
-_RING_SLACK_M = 0.02
-
-
-def _sweeps_blind(
-    points: FloatArray,
-    vx: float,
-    vy: float,
-    w: float,
-    horizon: float,
-    ring: float,
-    lo: float,
-    hi: float,
-    seen_free: Callable[[FloatArray], FloatArray] | None,
-) -> bool:
-    for f in (0.5, 1.0):
-        t = horizon * f
+        t = cfg.horizon * f
         c, s = math.cos(w * t), math.sin(w * t)
-        x = c * points[:, 0] - s * points[:, 1] + vx * t
-        y = s * points[:, 0] + c * points[:, 1] + vy * t
+        x = c * rear[:, 0] - s * rear[:, 1] + vx * t
+        y = s * rear[:, 0] + c * rear[:, 1] + vy * t
         bearing = np.arctan2(y, x)
-        blind = (np.hypot(x, y) > ring) & ((bearing < lo) | (bearing > hi))
+        blind = outside(x, y) & ((bearing < lo) | (bearing > hi))
         if blind.any() and (seen_free is None or not seen_free(np.column_stack([x[blind], y[blind]])).all()):
             return True
     return False
