@@ -214,7 +214,8 @@ class HybridAgent(HospitalAgent):
     def _sense(self, obs: dict[str, np.ndarray]) -> FloatArray:
         near = super()._sense(obs)
         self._memory.add(self._scan_robot, self._odom)
-        self._seen_free.add(np.asarray(obs["lrf"], dtype=np.float64), self._odom)
+        if self.hybrid.blind_turn:  # only the blind cuts ask it
+            self._seen_free.add(np.asarray(obs["lrf"], dtype=np.float64), self._odom)
         return near
 
     def _remembered(self) -> FloatArray:
