@@ -222,3 +222,27 @@ def test_seen_free_is_what_a_beam_passed_or_the_robot_stood_on() -> None:
     for _ in range(10):
         seen.add(np.zeros(1000), now)  # nothing returned below the minimum range: shows nothing
     assert seen.free(ahead, now).tolist() == [False, False, False, False, True, False, False]
+
+
+def test_docking_that_stands_still_recovers_after_dock_still_s(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    env = gym.make("PicoHospital-v0", **QUIET)
+    for seconds, expected in ((3.0, State.RECOVER), (0.0, State.DOCK)):
+        agent = make_agent("hybrid", env, path=_policy_file(tmp_path, env))
+        agent.hybrid = HybridConfig(dock_still_s=seconds)
+        obs, info = env.reset(seed=3)
+        agent.reset(obs, info)
+        agent.act(obs)
+        agent._go(State.DOCK)
+        agent.still_steps = 0
+        steps = int(round(3.0 / env.unwrapped.config.dt_s))
+        states = []
+        for _ in range(steps):
+            agent.finish((0.0, 0.0, 0.0))  # the dock servo's command, cut to nothing
+            states.append(agent.state)
+        assert states[: steps - 1] == [State.DOCK] * (steps - 1)
+        assert states[-1] is expected
+
+
+def test_hybrid_config_refuses_a_bad_dock_still_s() -> None:
+    with pytest.raises(ValueError, match="dock_still_s"):
+        HybridConfig(dock_still_s=-1.0)
