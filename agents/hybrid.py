@@ -100,7 +100,9 @@ class HybridConfig:
             raise ValueError(f"HybridConfig.blind_turn must be true or false, got {self.blind_turn!r}")
         if not (isinstance(self.blind_near_m, (int, float)) and 0.0 <= self.blind_near_m <= 10.0):
             raise ValueError(f"HybridConfig.blind_near_m must be in [0, 10] m, got {self.blind_near_m!r}")
-        if not (isinstance(self.dock_still_s, (int, float)) and 0.0 <= self.dock_still_s <= 60.0):
+        if isinstance(self.dock_still_s, bool) or not (
+            isinstance(self.dock_still_s, (int, float)) and 0.0 <= self.dock_still_s <= 60.0
+        ):
             raise ValueError(f"HybridConfig.dock_still_s must be in [0, 60] s, got {self.dock_still_s!r}")
         if not isinstance(self.blind_translation, bool):
             raise ValueError(f"HybridConfig.blind_translation must be true or false, got {self.blind_translation!r}")

@@ -244,5 +244,6 @@ def test_docking_that_stands_still_recovers_after_dock_still_s(tmp_path) -> None
 
 
 def test_hybrid_config_refuses_a_bad_dock_still_s() -> None:
-    with pytest.raises(ValueError, match="dock_still_s"):
-        HybridConfig(dock_still_s=-1.0)
+    for bad in (-1.0, float("nan"), 61.0, True, "3"):
+        with pytest.raises(ValueError, match="dock_still_s"):
+            HybridConfig(dock_still_s=bad)  # type: ignore[arg-type]
