@@ -278,16 +278,14 @@ class HybridAgent(HospitalAgent):
                     vx, vy = blind_translation((vx, vy, command[2]), self.motion, *self._view, seen_free=seen_free)
                 twist = (float(vx), float(vy), command[2])
                 command = (twist[0], twist[1], blind_turn(twist, self.motion, *self._view, seen_free=seen_free))
-            action = self._finish(self._near, command)
-            if (
-                self.state is State.DOCK
-                and self.hybrid.dock_still_s > 0.0
-                and self.still_steps >= self._steps(self.hybrid.dock_still_s)
-            ):
-                self.still_steps = 0
-                self._go(State.RECOVER)  # (the next step's command is the recovery's)
-            return action
+            return self._finish(self._near, command)
         return np.array([*command, -1.0] if self.announce else command, dtype=np.float32)
+
+    def _max_still_s(self) -> float:
+        """The classic part's never-stand-still limit, shorter while docking (`dock_still_s`)."""
+        if self.state is State.DOCK and self.hybrid.dock_still_s > 0.0:
+            return min(self.hybrid.dock_still_s, self.config.max_still_s)
+        return super()._max_still_s()
 
     def _cluttered(self) -> bool:
         """Whether the evidence holds anything the map does not show (a box, a person) within

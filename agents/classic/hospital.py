@@ -497,6 +497,10 @@ class HospitalAgent(Agent):
             command = getattr(self, f"_{self.state.value}")(near)
         return command
 
+    def _max_still_s(self) -> float:
+        """How long the robot may stand still (not dwelling) before it recovers, in this state [s]."""
+        return self.config.max_still_s
+
     def _finish(self, near: FloatArray, command: tuple[float, float, float]) -> np.ndarray:
         """The command through the safety filter (kept in the LRF's view, turns cut near corners,
         scaled down until the footprint keeps its margin), and the never-stand-still rule."""
@@ -509,7 +513,7 @@ class HospitalAgent(Agent):
         # or a wait is short; a robot boxed in by its own safety filter is not).
         moving = math.hypot(vx, vy) > 0.03 or abs(w) > 0.08
         self.still_steps = 0 if moving or self.state in (State.DWELL, State.DONE) else self.still_steps + 1
-        if self.still_steps >= self._steps(self.config.max_still_s):
+        if self.still_steps >= self._steps(self._max_still_s()):
             self.still_steps = 0
             self._go(State.RECOVER)
         if self.announce:  # the fourth component: > 0 announces (the course's io.speak)
