@@ -232,6 +232,24 @@ class PicoVectorEnv(VectorEnv):
             self._autoreset[i] = False
         return self._observations(), infos
 
+    def autoreset_seed(self, i: int) -> int | None:
+        """The seed robot i's next autoreset passes to its env's `reset` (None: its generator goes
+        on, as gymnasium's vector envs do). A subclass may hand each episode its own seed."""
+        return None
+
+    def step_finals(self, actions: np.ndarray) -> tuple[Obs, np.ndarray, np.ndarray, np.ndarray, Finals]:
+        """`step` in SAME_STEP mode for a learner that reads only the infos of the episodes that
+        ended: observations, rewards, terminations, truncations and {robot: (final observation,
+        final info)}, without the step's batched infos (what they cost is saved)."""
+        if self.autoreset_mode != AutoresetMode.SAME_STEP:
+            raise ValueError("step_finals needs autoreset_mode SAME_STEP (the final observations it returns)")
+        actions = np.asarray(actions)
+        if self._batch is not None and actions.shape == self._batch_shape and np.isfinite(actions.sum()):
+            obs, rewards, terminated, truncated, _, final = self._step_batch(actions, with_infos=False)
+        else:
+            obs, rewards, terminated, truncated, _, final = self.step_each(actions)
+        return obs, rewards, terminated, truncated, final
+
     def step(
         self, actions: np.ndarray
     ) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
@@ -255,10 +273,11 @@ class PicoVectorEnv(VectorEnv):
         return obs, rewards, terminated, truncated, batched
 
     def _step_batch(
-        self, actions: np.ndarray
+        self, actions: np.ndarray, with_infos: bool = True
     ) -> tuple[Obs, np.ndarray, np.ndarray, np.ndarray, dict[str, Any], Finals]:
         """`step` with the escape robots in one compiled call (`pico_gym.batched`); robots the
-        batch does not take, and steps it hands back (a possible contact), go through their envs."""
+        batch does not take, and steps it hands back (a possible contact), go through their envs.
+        `with_infos=False`: the batched infos are left out (an empty dict)."""
         n = self.num_envs
         batch, envs = self._batch, self._envs
         assert batch is not None
@@ -278,7 +297,7 @@ class PicoVectorEnv(VectorEnv):
             stepping = np.ones(n, dtype=np.bool_)
             for i in range(n):
                 if next_step and self._autoreset[i]:  # this step resets it (and steps it not)
-                    obs, patches[i] = envs[i].reset()
+                    obs, patches[i] = envs[i].reset(seed=self.autoreset_seed(i))
                     scans[i], odom[i] = obs["lrf"], obs["odom"]
                     self._autoreset[i] = False
                     batch.sync_in(i)
@@ -321,11 +340,13 @@ class PicoVectorEnv(VectorEnv):
                 odom[i] = obs["odom"]
             if (terminated[i] or truncated[i]) and not next_step:
                 final[i] = ({"lrf": scans[i].copy(), "odom": odom[i].copy()}, patches[i])
-                obs, patches[i] = env.reset()
+                obs, patches[i] = env.reset(seed=self.autoreset_seed(i))
                 scans[i], odom[i] = obs["lrf"], obs["odom"]
             elif terminated[i] or truncated[i]:
                 self._autoreset[i] = True
             batch.sync_in(i)
+        if not with_infos:
+            return {"lrf": scans, "odom": odom}, rewards, terminated, truncated, {}, final
         batched = escape_infos(values, ends, batch, patches)
         if batched is None:  # some robot's info has other keys: batch every robot's own
             kernel = escape_infos(values, ends, batch, {})
@@ -352,7 +373,7 @@ class PicoVectorEnv(VectorEnv):
         next_step = self.autoreset_mode == AutoresetMode.NEXT_STEP
         for i, env in enumerate(self.envs):
             if next_step and self._autoreset[i]:
-                obs, infos[i] = env.reset()
+                obs, infos[i] = env.reset(seed=self.autoreset_seed(i))
                 scans[i] = obs["lrf"]
                 self._autoreset[i] = False
                 continue
@@ -369,7 +390,7 @@ class PicoVectorEnv(VectorEnv):
                 else:
                     # (its scan is a row of the batch, which the reset's scan overwrites)
                     final[i] = ({**obs, "lrf": obs["lrf"].copy()}, infos[i])
-                    obs, infos[i] = env.reset()
+                    obs, infos[i] = env.reset(seed=self.autoreset_seed(i))
                     scans[i] = obs["lrf"]
         return {"lrf": scans, "odom": self._odometry()}, rewards, terminated, truncated, infos, final
 

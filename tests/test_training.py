@@ -376,3 +376,120 @@ def test_bench_train_prints_its_rows(capsys):
     out = capsys.readouterr().out
     for row in ("toy env (206-float Box observation)", "x the toy", "the wrapper tax", "x DummyVecEnv"):
         assert row in out
+
+
+def _announce_config(tmp_path):
+    config = load_config(Path(DEFAULT_CONFIG).with_name("ppo_hospital_pointgoal_announce.yaml"))
+    config.zoo.update(n_envs=2, n_steps=128, batch_size=128, n_epochs=1, policy_kwargs="dict(net_arch=[32, 32])")
+    config.pico.update(bc_episodes=1, bc_epochs=1, eval_freq=256, eval_episodes=1, checkpoint_freq=256)
+    return config
+
+
+def test_the_announcing_point_goal_policy_plays_the_announce_mode_only(tmp_path):
+    """The explicit-STOP variant: its policy has a fourth output, acts in arrival='announce'
+    envs, and a dwell env (three action components) is refused with the reason."""
+    config = _announce_config(tmp_path)
+    assert config.env_id == "PicoHospital-v0" and config.pico["bc_announce"] == "arrival"
+    kwargs = {"n_cabinets": 1, "time_limit_s": 10, "arrival": "announce", "false_announcement": "terminate"}
+    config.pico["env_kwargs"] = kwargs
+    path = train(config, tmp_path / "run", timesteps=512, progress_bar=False)
+    env = gym.make("PicoHospital-v0", **kwargs)
+    agent = make_agent("ppo-pointgoal", env, path=path)
+    obs, info = env.reset(seed=3)
+    agent.reset(obs, info)
+    action = agent.act(obs)
+    assert action.shape == (4,) and env.action_space.contains(action)
+    assert run_episode(env, agent, 3, "ppo-pointgoal").time_s > 0
+    with pytest.raises(ValueError, match="4 action outputs .*arrival='announce'"):
+        make_agent("ppo-pointgoal", gym.make("PicoHospital-v0", n_cabinets=1), path=path)
+
+
+def test_behaviour_cloning_labels_the_announcement_where_the_robot_stands(tmp_path):
+    """bc_announce 'arrival': +1 on the steps in the next square facing its cabinet, -1 elsewhere."""
+    from pico_gym.train.ppo import ANNOUNCE_LABEL_MARGIN, collect_demonstrations
+
+    config = _announce_config(tmp_path)
+    config.pico["env_kwargs"] = {"n_cabinets": 1, "arrival": "announce"}
+    config.pico["train_env_kwargs"] = {}
+    xs, ys, report = collect_demonstrations(config, 2)
+    assert report["teacher_success"] == 1.0 and ys.shape == (len(xs), 4)
+    assert set(np.unique(ys[:, 3])) == {-1.0, 1.0}  # both labels occur; nothing in between
+    assert 0 < ANNOUNCE_LABEL_MARGIN <= 1
+
+
+@pytest.mark.parametrize(
+    "extra,match",
+    [
+        ("  bc_announce: sometimes\n", "bc_announce must be 'teacher' or 'arrival'"),
+        ("  bc_announce: arrival\n", "needs arrival: announce"),
+    ],
+)
+def test_bad_announcement_labels_are_refused(tmp_path, extra, match):
+    path = tmp_path / "bad.yaml"
+    path.write_text(TINY + extra)
+    with pytest.raises(ConfigError, match=match):
+        load_config(path)
+
+
+def test_the_vector_training_env_hands_sb3_what_the_dummy_path_does(tiny_config):
+    """vec_env: vector (one vector env, the batched learning encoder) against vec_env: dummy
+    (wrapped single envs): the same observations, rewards, dones, terminal observations and final
+    infos, bit for bit, over episodes that end by bumps and time limits."""
+    import copy
+
+    from pico_gym.train.ppo import make_vec_env
+
+    tiny_config.pico["env_kwargs"] = {"n_beams": 200, "time_limit_s": 4}
+    vector = copy.deepcopy(tiny_config)
+    vector.pico["vec_env"] = "vector"
+    ours, theirs = make_vec_env(vector, seed=4), make_vec_env(tiny_config, seed=4)
+    assert ours.observation_space == theirs.observation_space and ours.action_space == theirs.action_space
+    assert np.array_equal(ours.reset(), theirs.reset())
+    rng = np.random.default_rng(0)
+    reasons = set()
+    for _ in range(300):
+        actions = rng.uniform(-1.0, 1.0, size=(2, 3)).astype(np.float32)
+        (o1, r1, d1, i1), (o2, r2, d2, i2) = ours.step(actions), theirs.step(actions)
+        assert np.array_equal(o1, o2) and np.array_equal(r1, r2) and np.array_equal(d1, d2)
+        assert r1.dtype == r2.dtype and o1.dtype == o2.dtype
+        for a, b, done in zip(i1, i2, d1, strict=True):
+            if not done:
+                continue
+            assert np.array_equal(a["terminal_observation"], b["terminal_observation"])
+            for key in ("sim_time", "termination_reason", "is_success", "bumps", "pose", "TimeLimit.truncated"):
+                assert np.array_equal(a[key], b[key]), key
+            assert a["episode"]["l"] == b["episode"]["l"]  # (VecMonitor sums returns in float32)
+            assert a["episode"]["r"] == pytest.approx(b["episode"]["r"], abs=1e-4)
+            reasons.add(a["termination_reason"])
+    assert {"bump", "timeout"} <= reasons
+    ours.close()
+    theirs.close()
+
+
+def test_training_with_the_vector_env_learns_what_the_dummy_path_learns(tiny_config, tmp_path):
+    """Same seed, same rollouts: the two paths end with the same policy weights."""
+    import copy
+
+    vector = copy.deepcopy(tiny_config)
+    vector.pico["vec_env"] = "vector"
+    tiny_config.pico.update(eval_freq=10**9, checkpoint_freq=10**9)
+    vector.pico.update(eval_freq=10**9, checkpoint_freq=10**9)
+    a = np.load(Path(train(tiny_config, tmp_path / "dummy", timesteps=1024, progress_bar=False)).with_suffix(".npz"))
+    b = np.load(Path(train(vector, tmp_path / "vector", timesteps=1024, progress_bar=False)).with_suffix(".npz"))
+    assert sorted(a.files) == sorted(b.files)
+    for name in a.files:
+        assert np.array_equal(a[name], b[name]), name
+
+
+@pytest.mark.parametrize(
+    "extra,match",
+    [
+        ("  vec_env: vectorised\n", "vec_env must be one of"),
+        ("  vec_env: vector\n  train_env_variants: [{n_obstacles: 1}]\n", "1 train_env_variants: use vec_env: dummy"),
+    ],
+)
+def test_vector_training_configs_it_cannot_run_are_refused(tmp_path, extra, match):
+    path = tmp_path / "bad.yaml"
+    path.write_text(TINY + extra)
+    with pytest.raises(ConfigError, match=match):
+        load_config(path)

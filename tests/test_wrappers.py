@@ -219,3 +219,56 @@ def test_point_goal_learning_pipeline_and_its_errors():
         PrivilegedPointGoal(gym.make("PicoEscape-v0"))
     with pytest.raises(ValueError, match="point_goal"):
         LearningConfig(point_goal="yes")  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize(
+    "settings",
+    [
+        {"n_sectors": 64, "frame_stack": 2, "memory_sectors": 36, "range_scale": "log"},
+        {"n_sectors": 16, "frame_stack": 3, "max_pool": True},
+        {"n_sectors": 8, "odometry": "none", "memory_sectors": 12},
+    ],
+)
+def test_the_batched_encoder_encodes_what_the_encoder_does(settings):
+    """BatchedLearningEncoder over 3 robots, with resets in the middle, against one
+    LearningEncoder per robot: the same inputs, bit for bit (odometry noise and heading wrap included)."""
+    from pico_gym.agents.base import RobotSpec
+    from pico_gym.wrappers import BatchedLearningEncoder, LearningEncoder
+
+    envs = [gym.make("PicoEscape-v0", noise_m=0.02, slip_std=0.05, time_limit_s=6) for _ in range(3)]
+    spec = RobotSpec.of(envs[0])
+    config = LearningConfig(**settings)
+    ones = [LearningEncoder(spec.lrf, spec.robot, spec.dt_s, config) for _ in envs]
+    batch = BatchedLearningEncoder(spec.lrf, spec.robot, spec.dt_s, config, len(envs))
+    obs = [env.reset(seed=20 + i)[0] for i, env in enumerate(envs)]
+    rows = np.arange(3)
+    batch.reset(rows, np.stack([o["lrf"] for o in obs]), np.stack([o["odom"] for o in obs]))
+    expected = [e.reset(o) for e, o in zip(ones, obs, strict=True)]
+    assert np.array_equal(batch.stacks, np.stack(expected))
+    rng = np.random.default_rng(1)
+    resets = 0
+    for _ in range(150):
+        fresh = []
+        for i, env in enumerate(envs):
+            obs[i], _, terminated, truncated, _ = env.step(rng.uniform(env.action_space.low, env.action_space.high))
+            if terminated or truncated:
+                obs[i] = env.reset()[0]
+                fresh.append(i)
+        stepped = [i for i in range(3) if i not in fresh]
+        if stepped:
+            batch.encode(
+                np.array(stepped),
+                np.stack([obs[i]["lrf"] for i in stepped]),
+                np.stack([obs[i]["odom"] for i in stepped]),
+            )
+        if fresh:
+            batch.reset(
+                np.array(fresh), np.stack([obs[i]["lrf"] for i in fresh]), np.stack([obs[i]["odom"] for i in fresh])
+            )
+        resets += len(fresh)
+        for i in range(3):
+            x = ones[i].reset(obs[i]) if i in fresh else ones[i].encode(obs[i])
+            assert np.array_equal(batch.stacks[i], x)
+    assert resets >= 3
+    with pytest.raises(ValueError, match="point goal"):
+        BatchedLearningEncoder(spec.lrf, spec.robot, spec.dt_s, LearningConfig(point_goal=True), 2)

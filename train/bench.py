@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 import statistics
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -77,7 +78,15 @@ def cmd_bench_train(args: argparse.Namespace) -> int:
     from stable_baselines3.common.vec_env import DummyVecEnv
 
     from pico_gym.cli import _interleaved, _machine, _versions
-    from pico_gym.train.ppo import EpisodeSeeds, load_config, make_env, make_vec_env, train_env_kwargs
+    from pico_gym.train.ppo import (
+        ConfigError,
+        EpisodeSeeds,
+        check_vector,
+        load_config,
+        make_env,
+        make_vec_env,
+        train_env_kwargs,
+    )
     from pico_gym.train.sb3_vec import PicoSB3VecEnv
     from pico_gym.wrappers import PicoLearningWrapper
 
@@ -91,12 +100,22 @@ def cmd_bench_train(args: argparse.Namespace) -> int:
         f"({n_envs} envs, {per_round:,} steps a round = {args.rollouts} rollouts)\n"
     )
 
-    pico_vec = make_vec_env(config, args.seed)
-    size = int(np.prod(pico_vec.observation_space.shape))
-    toy_vec = DummyVecEnv([lambda: ToyObservationEnv(size, pico_vec.action_space) for _ in range(n_envs)])
-    toy_model, pico_model = _ppo(config, toy_vec, args.seed), _ppo(config, pico_vec, args.seed)
-    toy_model.learn(per_round // args.rollouts)  # warm-up: JIT caches, allocations
-    pico_model.learn(per_round // args.rollouts)
+    # pico-gym train's two in-process paths: DummyVecEnv over wrapped envs, and the vector env.
+    paths = {"dummy": replace(config, pico={**config.pico, "vec_env": "dummy"})}
+    try:
+        paths["vector"] = load_config(args.config)
+        paths["vector"].pico["vec_env"] = "vector"
+        check_vector(paths["vector"])
+    except ConfigError as exc:
+        print(f"(no vec_env: vector row: {exc})")
+        paths.pop("vector")
+    pico_vecs = {name: make_vec_env(c, args.seed) for name, c in paths.items()}
+    first = next(iter(pico_vecs.values()))
+    size = int(np.prod(first.observation_space.shape))
+    toy_vec = DummyVecEnv([lambda: ToyObservationEnv(size, first.action_space) for _ in range(n_envs)])
+    models = [_ppo(config, toy_vec, args.seed)] + [_ppo(config, v, args.seed) for v in pico_vecs.values()]
+    for model in models:
+        model.learn(per_round // args.rollouts)  # warm-up: JIT caches, allocations
 
     def learn(model: Any) -> Callable[[], int]:
         def run() -> int:
@@ -106,10 +125,13 @@ def cmd_bench_train(args: argparse.Namespace) -> int:
 
         return run
 
-    toy_fps, pico_fps = _interleaved([learn(toy_model), learn(pico_model)], args.rounds)
+    toy_fps, *pico_fps = _interleaved([learn(m) for m in models], args.rounds)
     _row(f"SB3 PPO, toy env ({size}-float Box observation)", toy_fps, "fps")
-    _row("SB3 PPO, pico-gym train envs (PicoEscape-v0 + wrappers)", pico_fps, "fps", ("the toy", toy_fps))
-    pico_vec.close()
+    for name, fps in zip(pico_vecs, pico_fps, strict=True):
+        what = "DummyVecEnv of wrapped envs" if name == "dummy" else "PicoTrainingVecEnv"
+        _row(f"SB3 PPO, pico-gym train, vec_env: {name} ({what})", fps, "fps", ("the toy", toy_fps))
+    for v in pico_vecs.values():
+        v.close()
 
     # The learning wrapper's cost per step: a wrapped env against the same bare env.
     steps = 5000

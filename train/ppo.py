@@ -60,12 +60,17 @@ PICO_DEFAULTS: dict[str, Any] = {
     "bc_episodes": 0,
     "bc_epochs": 10,
     "bc_log_std": None,
+    "bc_announce": "teacher",
     "agent": "ppo",
 }
 # What plays a trained policy in evaluations: the policy alone, or the hybrid hospital agent (the
 # classic agent with the policy driving between its waypoints; its env_wrapper is
 # pico_gym.train.hybrid.HybridTraining).
 POLICY_AGENTS = ("ppo", "hybrid")
+# The training VecEnv: SB3's DummyVecEnv (in-process) or SubprocVecEnv over wrapped single envs,
+# or pico-gym's vector env with the learning encoder (`pico_gym.train.sb3_vec.PicoTrainingVecEnv`:
+# the same episodes, bit for bit; its env_wrapper must be PicoLearningWrapper alone, no variants).
+VEC_ENVS = ("dummy", "subproc", "vector")
 # Keys of the env block that are not PPO constructor arguments (rl-zoo3's meaning).
 ZOO_KEYS = {"n_envs", "n_timesteps", "policy", "env_wrapper", "policy_kwargs", "normalize", "frame_stack"}
 
@@ -138,18 +143,41 @@ def load_config(path: str | Path, env_id: str | None = None) -> TrainConfig:
     pico.update(data.get(PICO_KEY) or {})
     if pico["agent"] not in POLICY_AGENTS:
         raise ConfigError(f"{path}: {PICO_KEY}.agent must be one of {POLICY_AGENTS}, got {pico['agent']!r}")
-    if pico["vec_env"] not in ("dummy", "subproc"):
-        raise ConfigError(f"{path}: {PICO_KEY}.vec_env must be 'dummy' or 'subproc', got {pico['vec_env']!r}")
+    if pico["bc_announce"] not in ("teacher", "arrival"):
+        raise ConfigError(f"{path}: {PICO_KEY}.bc_announce must be 'teacher' or 'arrival', got {pico['bc_announce']!r}")
+    arrival = {**(pico["env_kwargs"] or {}), **(pico["train_env_kwargs"] or {})}.get("arrival", "dwell")
+    if pico["bc_announce"] == "arrival" and arrival != "announce":
+        raise ConfigError(
+            f"{path}: {PICO_KEY}.bc_announce 'arrival' labels the announcement, so the env needs arrival: announce "
+            f"(got {arrival!r})"
+        )
+    if pico["vec_env"] not in VEC_ENVS:
+        raise ConfigError(f"{path}: {PICO_KEY}.vec_env must be one of {VEC_ENVS}, got {pico['vec_env']!r}")
     variants = pico["train_env_variants"]
     if not isinstance(variants, list) or not all(isinstance(v, dict) for v in variants):
         raise ConfigError(f"{path}: {PICO_KEY}.train_env_variants must be a list of env kwargs dicts, got {variants!r}")
     config = TrainConfig(env_id, zoo, pico, str(path))
+    if pico["vec_env"] == "vector":
+        check_vector(config)
     config.learning  # noqa: B018  (validates the wrapper entry now, not after minutes of setup)
     return config
 
 
 # The activations a config may name as nn.<Name> in policy_kwargs.
 ACTIVATIONS = ("ReLU", "Tanh", "ELU", "LeakyReLU", "GELU", "SiLU", "Sigmoid")
+
+
+def check_vector(config: TrainConfig) -> None:
+    """Raise ConfigError unless `vec_env: vector` can train this config: the same env kwargs for
+    every robot (no train_env_variants) and the learning wrapper alone."""
+    wrappers = [_wrapper_entry(e)[0] for e in config.zoo["env_wrapper"] or []]
+    variants = config.pico["train_env_variants"] or []
+    if variants or len(wrappers) != 1 or not wrappers[0].endswith("PicoLearningWrapper"):
+        raise ConfigError(
+            f"{config.source}: {PICO_KEY}.vec_env 'vector' steps every robot with the same env kwargs and the "
+            f"learning wrapper alone; this config has env_wrapper {wrappers} and {len(variants)} "
+            "train_env_variants: use vec_env: dummy"
+        )
 
 
 def _policy_kwargs(text: str | dict[str, Any] | None, source: str) -> dict[str, Any]:
@@ -247,9 +275,14 @@ def make_env(config: TrainConfig, rng: np.random.Generator, index: int = 0) -> g
 
 def make_vec_env(config: TrainConfig, seed: int, stream: int = 0) -> Any:
     """The training VecEnv; env i's seeds come from Generator((seed, i, stream))."""
-    from stable_baselines3.common.vec_env import SubprocVecEnv
+    from stable_baselines3.common.vec_env import SubprocVecEnv, VecMonitor
 
     n = int(config.zoo["n_envs"])
+    if config.pico["vec_env"] == "vector":
+        from pico_gym.train.sb3_vec import PicoTrainingVecEnv
+
+        rngs = [np.random.default_rng([seed, i, stream]) for i in range(n)]
+        return VecMonitor(PicoTrainingVecEnv(config.env_id, rngs, config.learning, **train_env_kwargs(config)))
     factories = [(lambda i=i: make_env(config, np.random.default_rng([seed, i, stream]), i)) for i in range(n)]
     return SubprocVecEnv(factories) if config.pico["vec_env"] == "subproc" else in_process_vec_env(factories)
 
@@ -411,7 +444,11 @@ def collect_demonstrations(config: TrainConfig, episodes: int, teacher: str = "c
     agents = [make_agent(teacher, e) for e in envs]
     spec = RobotSpec.of(envs[0])
     encoder = LearningEncoder(spec.lrf, spec.robot, spec.dt_s, config.learning)
-    low, high = spec.robot.action_low, spec.robot.action_high
+    low, high = envs[0].action_space.low, envs[0].action_space.high
+    # bc_announce "arrival": the announcement is labelled by where the robot stands (in the next
+    # square and facing its cabinet within `ANNOUNCE_LABEL_MARGIN` of the tolerance), not by the
+    # teacher's one announcement per cabinet: a label on every such step, a training signal only.
+    by_arrival = config.pico["bc_announce"] == "arrival"
     xs, ys, successes = [], [], 0
     rng = np.random.default_rng([TRAIN_SEED_MIN, episodes])
     for k in range(episodes):
@@ -422,13 +459,26 @@ def collect_demonstrations(config: TrainConfig, episodes: int, teacher: str = "c
         while True:
             action = np.asarray(agent.act(obs), np.float64)
             xs.append(x)
-            ys.append(unit_action(action, low, high))
+            y = unit_action(action, low, high)
+            if by_arrival:
+                y[3] = 1.0 if _announce_label(env, info) else -1.0
+            ys.append(y)
             obs, _, terminated, truncated, info = env.step(action)
             if terminated or truncated:
                 successes += bool(info["is_success"])
                 break
             x = encoder.encode(obs)
     return np.asarray(xs, np.float32), np.asarray(ys, np.float32), {"teacher_success": successes / episodes}
+
+
+ANNOUNCE_LABEL_MARGIN = 0.7
+
+
+def _announce_label(env: gym.Env, info: dict[str, Any]) -> bool:
+    """Whether the robot stands in the next arrival square facing its cabinet (with a margin)."""
+    parts = info["arrival"]
+    tolerance = env.unwrapped.task.config.facing_tolerance_rad
+    return bool(parts["in_square"]) and abs(parts["heading_error"]) <= ANNOUNCE_LABEL_MARGIN * tolerance
 
 
 def _hybrid_demonstrations(config: TrainConfig, episodes: int) -> tuple[Any, Any, dict]:

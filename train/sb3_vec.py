@@ -1,10 +1,17 @@
-"""Stable-Baselines3's `VecEnv` over pico-gym's vector env: SB3 trains from N robots in one process.
+"""Stable-Baselines3's `VecEnv`s over pico-gym's vector env: SB3 trains from N robots in one process.
 
 `PicoSB3VecEnv(env_id, n)` steps `pico_gym.vector.PicoVectorEnv` in SAME_STEP autoreset mode and
 hands SB3 what its `DummyVecEnv` would: the batch of observations (the first of the next episode
 where one ended), rewards, dones, and one info dict per env with `terminal_observation` and
 `TimeLimit.truncated` (the info of a reset is in `reset_infos`). It carries no per-env gymnasium
 wrappers: observations are the env's own (`MultiInputPolicy`), not the learning encoder's.
+
+`PicoTrainingVecEnv(env_id, rngs, learning)` is `pico-gym train`'s fast path (`vec_env: vector`):
+what its in-process DummyVecEnv of `EpisodeSeeds` -> `PicoLearningWrapper` envs hands SB3, bit for
+bit (tested), from one vector env: each robot's episodes seeded from its own generator, the
+learning encoder's inputs, actions in [-1, 1]. Infos are those SB3 reads: a running robot's is
+empty, a finished episode's is its final info with `terminal_observation` and
+`TimeLimit.truncated` (wrap it in SB3's `VecMonitor` for the episode statistics).
 """
 
 from __future__ import annotations
@@ -14,9 +21,14 @@ from typing import Any
 
 import numpy as np
 from gymnasium.vector import AutoresetMode
+from gymnasium.wrappers.utils import rescale_box
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvObs, VecEnvStepReturn
 
+from pico_gym.agents.base import RobotSpec
 from pico_gym.vector import PicoVectorEnv
+from pico_gym.wrappers import BatchedLearningEncoder, LearningConfig
+
+TRAIN_SEED_MIN = 1_000_000  # (pico_gym.train.ppo's: the training episodes' seeds are >= this)
 
 
 class PicoSB3VecEnv(VecEnv):
@@ -83,3 +95,82 @@ class PicoSB3VecEnv(VecEnv):
 
     def get_images(self) -> Sequence[np.ndarray | None]:
         return [env.render() for env in self.venv.envs]
+
+
+class _SeededVectorEnv(PicoVectorEnv):
+    """A vector env whose robot i starts every episode with a seed drawn from rngs[i] (the
+    `EpisodeSeeds` wrapper of a single training env, for N robots)."""
+
+    def __init__(self, env_id: str, rngs: Sequence[np.random.Generator], **kwargs: Any) -> None:
+        super().__init__(env_id, len(rngs), autoreset_mode=AutoresetMode.SAME_STEP, **kwargs)
+        self.rngs = list(rngs)
+
+    def autoreset_seed(self, i: int) -> int:
+        return int(self.rngs[i].integers(TRAIN_SEED_MIN, 2**31))
+
+
+class PicoTrainingVecEnv(PicoSB3VecEnv):
+    """`pico-gym train`'s envs (episode seeds, the learning wrapper) as one vector env.
+
+    Args:
+        env_id: a pico-gym env id.
+        rngs: one generator per robot: robot i's episode seeds are drawn from rngs[i] (as
+            `EpisodeSeeds(env, rngs[i])` draws them; the seeds SB3 passes are not used).
+        learning: the policy's input (`PicoLearningWrapper`'s settings), encoded for every robot in
+            one call (`BatchedLearningEncoder`); a privileged point goal is not supported here.
+        **kwargs: the options every env is made with.
+    """
+
+    def __init__(
+        self, env_id: str, rngs: Sequence[np.random.Generator], learning: LearningConfig, **kwargs: Any
+    ) -> None:
+        if learning.point_goal:
+            raise ValueError(
+                "PicoTrainingVecEnv: a point goal (PrivilegedPointGoal) is not supported; use vec_env: dummy"
+            )
+        if not rngs:
+            raise ValueError("PicoTrainingVecEnv needs one generator per robot, got none")
+        n = len(rngs)
+        self.venv = _SeededVectorEnv(env_id, rngs, **kwargs)
+        first = self.venv.envs[0]
+        spec = RobotSpec.of(first)
+        self.encoder = BatchedLearningEncoder(spec.lrf, spec.robot, spec.dt_s, learning, n)
+        box = first.action_space
+        ones = np.ones(box.shape, box.dtype)
+        unit_space, _, self._to_env = rescale_box(box, -ones, ones)  # PicoLearningWrapper's RescaleAction
+        VecEnv.__init__(self, n, self.encoder.space, unit_space)
+        self.metadata = self.venv.metadata
+        self.render_mode = self.venv.render_mode
+        self._actions = None
+        self._all = np.arange(n)
+
+    def reset(self) -> VecEnvObs:
+        venv = self.venv
+        raw, infos = venv.reset_each(seed=[venv.autoreset_seed(i) for i in range(self.num_envs)])
+        self.reset_infos = [info or {} for info in infos]
+        self._reset_seeds()
+        self._reset_options()
+        self.encoder.reset(self._all, raw["lrf"], raw["odom"])
+        return self.encoder.stacks.copy()
+
+    def step_wait(self) -> VecEnvStepReturn:
+        raw, rewards, terminated, truncated, final = self.venv.step_finals(self._to_env(np.asarray(self._actions)))
+        lrf, odom = raw["lrf"], raw["odom"]
+        encoder = self.encoder
+        out: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
+        if not final:
+            encoder.encode(self._all, lrf, odom)
+            return encoder.stacks.copy(), rewards.astype(np.float32), terminated | truncated, out
+        # An episode ended: its last observation is encoded first (the terminal observation SB3
+        # bootstraps a truncation from), then its robot's next episode begins.
+        ended = np.array(sorted(final), np.int64)
+        last_lrf, last_odom = lrf.copy(), odom.copy()
+        for i in ended.tolist():
+            last_lrf[i], last_odom[i] = final[i][0]["lrf"], final[i][0]["odom"]
+        encoder.encode(self._all, last_lrf, last_odom)
+        for i in ended.tolist():
+            info = dict(final[i][1], terminal_observation=encoder.stacks[i].copy())
+            info["TimeLimit.truncated"] = bool(truncated[i] and not terminated[i])
+            out[i] = info
+        encoder.reset(ended, lrf[ended], odom[ended])
+        return encoder.stacks.copy(), rewards.astype(np.float32), terminated | truncated, out
