@@ -20,8 +20,9 @@ from pico_gym.agents.base import Agent, RobotSpec
 AGENTS = ("classic", "ppo", "hybrid", "wall-follow", "random", "classic-oracle", "ppo-pointgoal")
 # Agents that read privileged state (the true pose) for benchmarks: never a baseline to beat.
 PRIVILEGED_AGENTS = ("classic-oracle", "ppo-pointgoal")
-# Agents that play the hospital's arrival="announce" mode (a fourth action component).
-ANNOUNCING_AGENTS = ("classic", "classic-oracle", "hybrid")
+# Agents that play the hospital's arrival="announce" mode (a fourth action component); a
+# ppo-pointgoal policy plays the mode it was trained in (checked against its outputs).
+ANNOUNCING_AGENTS = ("classic", "classic-oracle", "hybrid", "ppo-pointgoal")
 CLASSIC_ENVS = ("PicoEscape-v0", "PicoHospital-v0", "PicoExplore-v0")  # the classic agent has a strategy for these
 
 
@@ -75,7 +76,15 @@ def make_agent(name: str, env: gym.Env, **kwargs: Any) -> Agent:
                     "and pass path=... (--policy)"
                 )
             kwargs["path"] = SHIPPED_POINTGOAL_POLICY
-        return PpoAgent(spec, goal=lambda: point_goal(env), **kwargs)  # privileged: the true pose
+        agent = PpoAgent(spec, goal=lambda: point_goal(env), **kwargs)  # privileged: the true pose
+        outputs, wanted = agent.actor.action_low.shape[0], env.action_space.shape[0]
+        if outputs != wanted:
+            trained, here = ("arrival='announce'", "'dwell'") if outputs == 4 else ("arrival='dwell'", "'announce'")
+            raise ValueError(
+                f"this ppo-pointgoal policy ({kwargs['path']}) has {outputs} action outputs (trained with {trained}); "
+                f"the env here takes {wanted} (arrival={here}): make the env with the arrival mode it was trained in"
+            )
+        return agent
     if name == "hybrid":
         if env_id != "PicoHospital-v0":
             raise ValueError(f"the hybrid agent (classic route, PPO driving) plays PicoHospital-v0 only; got {env_id}")

@@ -168,6 +168,11 @@ class PpoAgent(Agent):
                 f"the policy expects observations of length {actor.obs_size}, but {learning} on this robot's "
                 f"LRF ({spec.lrf.n_beams} beams) gives {self.encoder.space.shape}"
             )
+        if actor.action_low.shape[0] not in (3, 4):
+            raise ValueError(
+                f"the policy has {actor.action_low.shape[0]} action outputs; a PpoAgent plays a twist (3) or a "
+                "twist and an announcement (4, PicoHospital-v0's arrival='announce')"
+            )
         self._low, self._high = spec.robot.action_low, spec.robot.action_high
         self._first: np.ndarray | None = None
         self._goal = goal if learning.point_goal else None
@@ -187,4 +192,6 @@ class PpoAgent(Agent):
         else:
             x = self.encoder.encode(self._with_goal(obs))
         unit = self.actor.act(x, None if self.deterministic else self.rng)
-        return rescale_action(unit, self._low, self._high).astype(np.float32)
+        twist = rescale_action(unit[:3], self._low, self._high)
+        # A policy trained with arrival="announce" has a fourth output: the announcement, in [-1, 1].
+        return np.concatenate([twist, unit[3:]]).astype(np.float32)
