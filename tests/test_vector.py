@@ -177,3 +177,35 @@ def test_sb3_vec_env_gives_what_dummy_vec_env_gives() -> None:
     assert ours.get_attr("steps") == [env.unwrapped.steps for env in dummy.envs]
     assert ours.env_is_wrapped(gym.Wrapper) == [False] * 3
     ours.close()
+
+
+def test_step_finals_and_the_autoreset_seed_hook() -> None:
+    """`step_finals` (SAME_STEP only) returns what `step` does without the step's infos; a
+    subclass's `autoreset_seed` seeds every autoreset (here: always the same episode)."""
+    from pico_gym.vector import PicoVectorEnv
+
+    class Replay(PicoVectorEnv):
+        def autoreset_seed(self, i: int) -> int:
+            return 7
+
+    options = {"time_limit_s": 2.0, "n_obstacles": 1}
+    ours = Replay("PicoEscape-v0", 2, autoreset_mode=AutoresetMode.SAME_STEP, **options)
+    theirs = Replay("PicoEscape-v0", 2, autoreset_mode=AutoresetMode.SAME_STEP, **options)
+    first, _ = gym.make("PicoEscape-v0", **options).reset(seed=7)
+    ours.reset(seed=[7, 7])
+    theirs.reset(seed=[7, 7])
+    rng = np.random.default_rng(3)
+    ended = 0
+    for _ in range(60):
+        actions = rng.uniform(-0.3, 0.5, size=(2, 3)).astype(np.float32)
+        obs, rewards, terminated, truncated, final = ours.step_finals(actions)
+        obs2, rewards2, terminated2, truncated2, infos = theirs.step(actions)
+        assert_same((obs, rewards, terminated, truncated), (obs2, rewards2, terminated2, truncated2))
+        for i, (final_obs, final_info) in final.items():
+            assert_same(final_obs, infos["final_obs"][i])
+            assert final_info["sim_time"] == infos["final_info"]["sim_time"][i]
+            assert np.array_equal(obs["lrf"][i], first["lrf"])  # the next episode: seed 7 again
+            ended += 1
+    assert ended >= 2
+    with pytest.raises(ValueError, match="SAME_STEP"):
+        PicoVectorEnv("PicoEscape-v0", 2).step_finals(np.zeros((2, 3), np.float32))
