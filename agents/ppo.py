@@ -192,6 +192,7 @@ class PpoAgent(Agent):
         else:
             x = self.encoder.encode(self._with_goal(obs))
         unit = self.actor.act(x, None if self.deterministic else self.rng)
-        twist = rescale_action(unit[:3], self._low, self._high)
+        if unit.shape[0] == 3:
+            return rescale_action(unit, self._low, self._high).astype(np.float32)
         # A policy trained with arrival="announce" has a fourth output: the announcement, in [-1, 1].
-        return np.concatenate([twist, unit[3:]]).astype(np.float32)
+        return np.concatenate([rescale_action(unit[:3], self._low, self._high), unit[3:]]).astype(np.float32)

@@ -582,7 +582,10 @@ class BatchedLearningEncoder:
 
     def __init__(self, lrf: LrfConfig, robot: RobotConfig, dt_s: float, config: LearningConfig, n: int) -> None:
         if config.point_goal:
-            raise ValueError("BatchedLearningEncoder does not take a point goal; use LearningEncoder per robot")
+            raise ValueError(
+                "BatchedLearningEncoder does not take a point goal (PrivilegedPointGoal): use LearningEncoder per "
+                "robot (in pico-gym train: vec_env: dummy)"
+            )
         one = LearningEncoder(lrf, robot, dt_s, config)
         self.config, self.space, self.frame_size = config, one.space, one.frame_size
         self._starts = one.starts.astype(np.int64)

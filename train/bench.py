@@ -102,13 +102,12 @@ def cmd_bench_train(args: argparse.Namespace) -> int:
 
     # pico-gym train's two in-process paths: DummyVecEnv over wrapped envs, and the vector env.
     paths = {"dummy": replace(config, pico={**config.pico, "vec_env": "dummy"})}
+    vector = replace(config, pico={**config.pico, "vec_env": "vector"})
     try:
-        paths["vector"] = load_config(args.config)
-        paths["vector"].pico["vec_env"] = "vector"
-        check_vector(paths["vector"])
+        check_vector(vector)
+        paths["vector"] = vector
     except ConfigError as exc:
         print(f"(no vec_env: vector row: {exc})")
-        paths.pop("vector")
     pico_vecs = {name: make_vec_env(c, args.seed) for name, c in paths.items()}
     first = next(iter(pico_vecs.values()))
     size = int(np.prod(first.observation_space.shape))

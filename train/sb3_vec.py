@@ -124,10 +124,6 @@ class PicoTrainingVecEnv(PicoSB3VecEnv):
     def __init__(
         self, env_id: str, rngs: Sequence[np.random.Generator], learning: LearningConfig, **kwargs: Any
     ) -> None:
-        if learning.point_goal:
-            raise ValueError(
-                "PicoTrainingVecEnv: a point goal (PrivilegedPointGoal) is not supported; use vec_env: dummy"
-            )
         if not rngs:
             raise ValueError("PicoTrainingVecEnv needs one generator per robot, got none")
         n = len(rngs)
