@@ -271,6 +271,11 @@ def _cast_one(
                 continue
             r = cross_p1_e / denom
             if r > 0.0 and r < out[i]:  # most beams of a cluttered view are already shorter
+                if i0 < i < i1 - 1:
+                    # A beam between two others of the span lies a whole beam step inside the
+                    # segment's bearings: its hit is on the segment, no end-point test needed.
+                    out[i] = r
+                    continue
                 u = (x1 * ds - y1 * dc) / denom
                 if -_ENDPOINT_TOL <= u <= 1.0 + _ENDPOINT_TOL:
                     out[i] = r
