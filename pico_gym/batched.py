@@ -369,7 +369,7 @@ class EscapeBatch:
     def _hand_over_trajectory(self, i: int) -> None:
         t = int(self.istate[i, _TRAJ])
         if t:
-            self.envs[i].trajectory.extend(map(Pose._make, self.trajectory[i, :t].tolist()))
+            self.envs[i]._add_trajectory(self.trajectory[i, :t].copy())
             self.istate[i, _TRAJ] = 0
 
     def _join(self, i: int, field: FloatArray, solid: FloatArray, seen: FloatArray, flags: np.ndarray | None) -> None:

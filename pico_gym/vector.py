@@ -25,6 +25,7 @@ LRF's kept constants, so that a scan in the batch is the scan the env itself wou
 
 from __future__ import annotations
 
+import math
 from functools import partial
 from typing import Any
 
@@ -244,7 +245,7 @@ class PicoVectorEnv(VectorEnv):
         if self.autoreset_mode != AutoresetMode.SAME_STEP:
             raise ValueError("step_finals needs autoreset_mode SAME_STEP (the final observations it returns)")
         actions = np.asarray(actions)
-        if self._batch is not None and actions.shape == self._batch_shape and np.isfinite(actions.sum()):
+        if self._batch is not None and actions.shape == self._batch_shape and math.isfinite(actions.sum()):
             obs, rewards, terminated, truncated, _, final = self._step_batch(actions, with_infos=False)
         else:
             obs, rewards, terminated, truncated, _, final = self.step_each(actions)
@@ -255,7 +256,7 @@ class PicoVectorEnv(VectorEnv):
     ) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """Step every robot with its row of `actions` (an (num_envs, action size) array)."""
         actions = np.asarray(actions)
-        if self._batch is not None and actions.shape == self._batch_shape and np.isfinite(actions.sum()):
+        if self._batch is not None and actions.shape == self._batch_shape and math.isfinite(actions.sum()):
             obs, rewards, terminated, truncated, batched, final = self._step_batch(actions)
         else:
             obs, rewards, terminated, truncated, infos, final = self.step_each(actions)
@@ -290,7 +291,8 @@ class PicoVectorEnv(VectorEnv):
         patches: dict[int, dict[str, Any]] = {}
         next_step = self.autoreset_mode == AutoresetMode.NEXT_STEP
         others: list[int] = []
-        everyone = not self._autoreset.any() and batch.live.all()
+        # (count_nonzero: a fifth of what any() and all() cost on arrays this small)
+        everyone = not np.count_nonzero(self._autoreset) and np.count_nonzero(batch.live) == n
         if everyone:
             rows = self._all  # the common step: every robot in the batch
         else:
@@ -316,7 +318,8 @@ class PicoVectorEnv(VectorEnv):
                 events = np.flatnonzero(ends[:, 0] | ends[:, 1]).tolist()
         else:
             ends[:] = 0
-        ends[others] = 0  # not stepped by the batch: no verdict of its (a row may hold an old one)
+        if others:
+            ends[others] = 0  # not stepped by the batch: no verdict of its (a row may hold an old one)
         for i in events + others:
             env = envs[i]
             code = int(ends[i, 0])

@@ -217,6 +217,9 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self.physics: Physics | None = None  # type: ignore[assignment]
         self._shape_pool = StaticShapePool()
         self._finished = False
+        self._trajectory: list[Pose] = []
+        # Poses stepped elsewhere (a vector env's batch), as (n, 3) arrays not yet made Poses.
+        self._trajectory_blocks: list[FloatArray] = []
 
     # --- the episode ---------------------------------------------------------------------
     def reset(
@@ -281,7 +284,8 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self._path_length = 0.0
         self._clearance = self._footprint_clearance(ep.start)
         self._min_clearance = self._clearance
-        self.trajectory = [ep.start]
+        self._trajectory = [ep.start]
+        self._trajectory_blocks.clear()
         self.bump_points: list[Pose] = []
         self._finished = False
         self.last_scan = self.lrf.scan(ep.start, self._seen, self.np_random, self._movers, self._one_sided)
@@ -494,6 +498,19 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         truth_theta = float(wrap_angle(a.theta + b.theta))
         odom = self.odometry.pose
         return np.array([odom.x - truth_x, odom.y - truth_y, wrap_angle(odom.theta - truth_theta)])
+
+    @property
+    def trajectory(self) -> list[Pose]:
+        """The episode's true poses so far: the start, then one a step (privileged)."""
+        if self._trajectory_blocks:
+            for block in self._trajectory_blocks:
+                self._trajectory.extend(map(Pose._make, block.tolist()))
+            self._trajectory_blocks.clear()
+        return self._trajectory
+
+    def _add_trajectory(self, block: FloatArray) -> None:
+        """Poses (an (n, 3) array) stepped outside `step`, made Poses only when read."""
+        self._trajectory_blocks.append(block)
 
     @property
     def pose(self) -> Pose:
