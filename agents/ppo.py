@@ -137,6 +137,10 @@ class PpoAgent(Agent):
         goal: for a policy trained with `point_goal` (privileged), what fills `obs["point_goal"]`
             when the env's observations lack it (`make_agent("ppo-pointgoal", env)` reads the
             env's true state with `pico_gym.wrappers.point_goal`).
+        shield: pass the policy's twist through the classic agents' safety filter on the current
+            scan (`pico_gym.agents.classic.potential_field`: turns cut near corners, the command
+            scaled down until the footprint keeps its margin from the scan's points). It knows
+            only what the LRF sees now: nothing behind the robot.
     """
 
     name = "ppo"
@@ -150,8 +154,11 @@ class PpoAgent(Agent):
         deterministic: bool = True,
         seed: int = 0,
         goal: Callable[[], np.ndarray] | None = None,
+        shield: bool = False,
     ) -> None:
         super().__init__(spec)
+        if not isinstance(shield, bool):
+            raise ValueError(f"PpoAgent(shield=...) must be true or false, got {shield!r}")
         if model is None:
             actor, learning, _ = load_actor(path or SHIPPED_POLICY)
         elif learning is None:
@@ -176,6 +183,11 @@ class PpoAgent(Agent):
         self._low, self._high = spec.robot.action_low, spec.robot.action_high
         self._first: np.ndarray | None = None
         self._goal = goal if learning.point_goal else None
+        self.shield = shield
+        if shield:
+            from pico_gym.agents.classic.potential_field import motion_for
+
+            self._motion = motion_for(spec)
 
     def _with_goal(self, obs: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         if self._goal is None or "point_goal" in obs:
@@ -193,6 +205,22 @@ class PpoAgent(Agent):
             x = self.encoder.encode(self._with_goal(obs))
         unit = self.actor.act(x, None if self.deterministic else self.rng)
         if unit.shape[0] == 3:
-            return rescale_action(unit, self._low, self._high).astype(np.float32)
+            twist = rescale_action(unit, self._low, self._high)
+            return (self._shielded(obs, twist) if self.shield else twist).astype(np.float32)
         # A policy trained with arrival="announce" has a fourth output: the announcement, in [-1, 1].
-        return np.concatenate([rescale_action(unit[:3], self._low, self._high), unit[3:]]).astype(np.float32)
+        twist = rescale_action(unit[:3], self._low, self._high)
+        if self.shield:
+            twist = self._shielded(obs, twist)
+        return np.concatenate([twist, unit[3:]]).astype(np.float32)
+
+    def _shielded(self, obs: dict[str, np.ndarray], twist: np.ndarray) -> np.ndarray:
+        """The twist through the safety filter, on the scan's end points within 1.2 m."""
+        from pico_gym.agents.classic.localisation import scan_points
+        from pico_gym.agents.classic.potential_field import safe_turn, safety_filter
+
+        lrf = self.spec.lrf
+        ranges = np.asarray(obs["lrf"], dtype=np.float64)
+        near = scan_points(ranges, self.spec.beam_angles, lrf.range_max_m, len(ranges))
+        near = near[np.hypot(near[:, 0], near[:, 1]) < 1.2]
+        w = safe_turn(near, float(twist[2]), self._motion)
+        return np.array(safety_filter(near, (float(twist[0]), float(twist[1]), w), self._motion))

@@ -208,3 +208,21 @@ def test_run_takes_the_reset_options(capsys: pytest.CaptureFixture[str]) -> None
     assert main([*args, "--set", "n_movers=(0, 0)", "--set", "n_boxes=(0, 0)", "--set", "closed_doors=(0, 0)"]) == 0
     out = capsys.readouterr().out
     assert "outcome: done" in out
+
+
+def test_the_ppo_agents_shield_keeps_the_footprint_off_what_the_scan_shows() -> None:
+    """`PpoAgent(shield=True)`: the twist passes the classic safety filter on the current scan."""
+    from pico_gym.agents.ppo import PpoAgent
+
+    env = gym.make("PicoEscape-v0")
+    spec = RobotSpec.of(env)
+    agent = PpoAgent(spec, shield=True)
+    ranges = np.full(spec.lrf.n_beams, spec.lrf.range_max_m, np.float32)
+    ranges[np.abs(spec.beam_angles) < math.radians(30.0)] = 0.15  # a wall 5 cm ahead of the front
+    obs = {"lrf": ranges, "odom": np.zeros(3, np.float32)}
+    vx, vy, w = agent._shielded(obs, np.array([spec.robot.max_speed_mps, 0.0, 0.0]))
+    assert vx < 0.05 * spec.robot.max_speed_mps  # not into the wall
+    free = {"lrf": np.full(spec.lrf.n_beams, spec.lrf.range_max_m, np.float32), "odom": np.zeros(3, np.float32)}
+    assert agent._shielded(free, np.array([0.3, 0.1, 0.5])).tolist() == pytest.approx([0.3, 0.1, 0.5])
+    with pytest.raises(ValueError, match="shield"):
+        PpoAgent(spec, shield=1)  # type: ignore[arg-type]
