@@ -209,3 +209,15 @@ def test_step_finals_and_the_autoreset_seed_hook() -> None:
     assert ended >= 2
     with pytest.raises(ValueError, match="SAME_STEP"):
         PicoVectorEnv("PicoEscape-v0", 2).step_finals(np.zeros((2, 3), np.float32))
+
+
+def test_the_escape_robots_info_masks_are_read_only_when_every_robot_has_every_key() -> None:
+    """The common step's masks are shared between steps: a write is refused, not carried on."""
+    venv = gym.make_vec("PicoEscape-v0", num_envs=3, vectorization_mode="vector_entry_point")
+    venv.reset(seed=0)
+    _, _, _, _, infos = venv.step(np.zeros((3, 3), np.float32))
+    assert infos["_pose"].all() and not infos["_pose"].flags.writeable
+    with pytest.raises(ValueError, match="read-only"):
+        infos["_clearance"][0] = False
+    _, _, _, _, again = venv.step(np.zeros((3, 3), np.float32))
+    assert again["_clearance"].all()
