@@ -179,18 +179,29 @@ def _update_memory(memory, ranges, beam_angles, centres, heading, range_max, log
     inv_width = n / (2.0 * math.pi)
     heading = heading % (2.0 * math.pi)  # [0, 2 pi); beam and centre angles are within [-pi, pi]
     current = np.full(n, -1.0)
-    # The beams are sorted, so their raw bin int((angle + 4 pi) * inv_width) never decreases: wrap
-    # it by an offset that grows by n when it passes n (what `_bin` computes, without its loop).
-    offset = _bin(heading + beam_angles[0], inv_width, n)
-    offset = int((heading + beam_angles[0] + 4.0 * math.pi) * inv_width) - offset
+    # The beams are sorted, so their raw bin int(x), x = (angle + 4 pi) * inv_width, never
+    # decreases: walk the bins along with the beams (bin b holds raw bins ..., edge - 1; x >= edge
+    # moves on, the same test as int(x) >= edge for x >= 0) and keep each bin's farthest range in
+    # a register, stored once when the walk leaves the bin. (A compare and store per beam into
+    # current[b] mispredicts on real scans: this costs a third of it.)
+    b = _bin(heading + beam_angles[0], inv_width, n)
+    edge = float(int((heading + beam_angles[0] + 4.0 * math.pi) * inv_width) + 1)
+    farthest = -1.0
     for i in range(ranges.shape[0]):
         r = ranges[i] if ranges[i] > 0.0 else range_max
-        b = int((heading + beam_angles[i] + 4.0 * math.pi) * inv_width) - offset
-        if b >= n:
-            offset += n
-            b -= n
-        if r > current[b]:
-            current[b] = r
+        x = (heading + beam_angles[i] + 4.0 * math.pi) * inv_width
+        if x >= edge:
+            if farthest > current[b]:
+                current[b] = farthest
+            farthest = -1.0
+            while x >= edge:
+                edge += 1.0
+                b += 1
+                if b == n:
+                    b = 0
+        farthest = r if r > farthest else farthest
+    if farthest > current[b]:
+        current[b] = farthest
     for b in range(n):
         if current[b] >= 0.0:
             memory[b] = current[b]

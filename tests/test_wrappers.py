@@ -1,6 +1,8 @@
 """The learning wrappers: shapes, bounds, min-pooling, action rescaling, and the one-pass pipeline
 equal to the chain of standard wrappers."""
 
+import math
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -176,6 +178,34 @@ def test_range_memory_remembers_what_turned_out_of_view():
     assert body[ahead] == pytest.approx(0.2)
     with pytest.raises(ValueError, match="memory_sectors"):
         RangeMemory(angles, 2, 10.0)
+
+
+def _memory_by_definition(memory: np.ndarray, ranges: np.ndarray, angles: np.ndarray, heading: float, n: int) -> None:
+    """RangeMemory's store, beam by beam: bin int((heading mod 2 pi + angle + 4 pi) * n / 2 pi) mod n
+    keeps the farthest range of this scan (no hit: the range limit, 10 m)."""
+    inv_width = n / (2.0 * math.pi)
+    h = heading % (2.0 * math.pi)
+    current = np.full(n, -1.0)
+    for r, a in zip(ranges.tolist(), angles.tolist(), strict=True):
+        b = int((h + a + 4.0 * math.pi) * inv_width) % n
+        current[b] = max(current[b], r if r > 0.0 else 10.0)
+    memory[current >= 0.0] = current[current >= 0.0]
+
+
+@pytest.mark.parametrize("n_bins", [4, 13, 36, 1500])
+def test_range_memory_bins_every_beam_as_its_definition(n_bins: int):
+    # 229-degree and full-circle beam fans; scans with no-hit zeros; headings on bin edges too.
+    rng = np.random.default_rng(n_bins)
+    for angles in (np.linspace(-2.0, 2.0, 1000), np.linspace(-math.pi, math.pi, 721)):
+        memory = RangeMemory(angles, n_bins, 10.0)
+        expected = np.zeros(n_bins)
+        for k in range(40):
+            ranges = rng.uniform(0.05, 12.0, len(angles)).astype(np.float32 if k % 2 else np.float64)
+            ranges[rng.random(len(angles)) < 0.2] = 0.0
+            heading = rng.uniform(-20.0, 20.0) if k % 3 else int(rng.integers(-9, 9)) * 2.0 * math.pi / n_bins
+            memory.update(ranges, heading)
+            _memory_by_definition(expected, ranges, angles, heading, n_bins)
+            np.testing.assert_array_equal(memory.memory, expected)
 
 
 # --- the privileged point goal (end-to-end hospital baseline) ------------------------------------
