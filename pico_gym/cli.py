@@ -137,6 +137,23 @@ def clutter_scene(n_segments: int, seed: int = 0) -> np.ndarray:
     return np.array(segs[:n_segments], dtype=np.float64)
 
 
+def free_poses(segments: np.ndarray, n: int, seed: int = 0, clearance_m: float = 0.3) -> list[Any]:
+    """n poses uniform in a `clutter_scene` room (random headings), each at least `clearance_m`
+    from every segment (so outside every box: a box's half side is at most 0.3 m)."""
+    from pico_gym.types import Pose
+
+    rng = np.random.default_rng(seed)
+    a, e = segments[:, :2], segments[:, 2:] - segments[:, :2]
+    length_sq = np.maximum((e * e).sum(axis=1), 1e-300)
+    poses: list[Any] = []
+    while len(poses) < n:
+        p = rng.uniform(-4.9, 4.9, size=2)
+        t = np.clip(((p - a) * e).sum(axis=1) / length_sq, 0.0, 1.0)
+        if np.hypot(*(a + t[:, None] * e - p).T).min() >= clearance_m:
+            poses.append(Pose(float(p[0]), float(p[1]), float(rng.uniform(-math.pi, math.pi))))
+    return poses
+
+
 def _reset_rate(env_id: str, seed: int, repeats: int, **kwargs: object) -> tuple[float, float]:
     """Median resets/s over `repeats` runs of 20 resets, and the median reset time [ms]."""
     import gymnasium as gym
@@ -306,6 +323,35 @@ def bench_lrf(repeats: int, seed: int, scans: int = 300) -> None:
             f"{label:<48} {statistics.median(a):9,.0f} {statistics.median(b):11,.0f} "
             f"{statistics.median(c):9,.0f} {ratio:6.2f}x"
         )
+
+    # A moving robot: every scan from another place (the rows above scan one pose over and over,
+    # where the CPU's branch predictors learn a whole scan's branches, both scanners' alike).
+    n_poses = 64
+    print(f"\nLRF scans/s, the sensor at {n_poses} free poses in turn (>= 0.3 m from every wall, random headings)")
+    print(f"{'scene':<48} {'pico-gym':>9} {'':>11} {'f1tenth':>9} {'ratio':>7}")
+    for label, segs, flags, _ in scenes[:-1]:  # (the room scenes: poses drawn inside the room)
+        seen = SegmentGrid(segs, flags) if len(segs) >= GRID_MIN_SEGMENTS else segs
+        marcher = RayMarchScanner(segs)
+        poses = free_poses(segs, n_poses, seed)
+        rounds = max(1, scans // n_poses)
+
+        def ours_moving(seen=seen, poses=poses, flags=flags, rounds=rounds) -> int:  # noqa: ANN001
+            for _ in range(rounds):
+                for pose in poses:
+                    lrf.exact(pose, seen, None, flags)
+            return rounds * len(poses)
+
+        def theirs_moving(marcher=marcher, poses=poses, rounds=rounds) -> int:  # noqa: ANN001
+            for _ in range(rounds):
+                for pose in poses:
+                    marcher.scan(*pose)
+            return rounds * len(poses)
+
+        ours_moving()
+        theirs_moving()
+        a, c = _interleaved([ours_moving, theirs_moving], repeats)
+        ratio = statistics.median(x / y for x, y in zip(a, c, strict=True))
+        print(f"{label:<48} {statistics.median(a):9,.0f} {'':>11} {statistics.median(c):9,.0f} {ratio:6.2f}x")
 
     def draws() -> int:
         for _ in range(scans):

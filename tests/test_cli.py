@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pico_gym.cli import clutter_scene, main
+from pico_gym.cli import clutter_scene, free_poses, main
 
 
 def test_maps_lists_the_shipped_maps(capsys: pytest.CaptureFixture[str]) -> None:
@@ -77,11 +77,24 @@ def test_bench_env_prints_all_figures(capsys: pytest.CaptureFixture[str]) -> Non
         assert f"{n:>3} segments" in out
     for row in ("16 envs, vector_entry_point", "16 envs, sync", "2 envs, vector_entry_point", "2 envs, async"):
         assert f"make_vec, {row}" in out
+    moving = out.split("the sensor at 64 free poses in turn")[1]
+    assert all(f"{n:>4} segments" in moving for n in (20, 100, 400, 1000, 2000))
 
 
 def test_clutter_scene_has_the_asked_segment_count() -> None:
     for n in (20, 100, 400):
         assert clutter_scene(n).shape == (n, 4)
+
+
+def test_free_poses_keep_their_clearance_and_repeat_with_the_seed() -> None:
+    scene = clutter_scene(1000, seed=2)
+    poses = free_poses(scene, 32, seed=5)
+    assert len(poses) == 32 and poses == free_poses(scene, 32, seed=5)
+    a, e = scene[:, :2], scene[:, 2:] - scene[:, :2]
+    for x, y, theta in poses:
+        t = np.clip(((np.array([x, y]) - a) * e).sum(axis=1) / (e * e).sum(axis=1), 0.0, 1.0)
+        assert np.hypot(*(a + t[:, None] * e - [x, y]).T).min() >= 0.3
+        assert -4.9 <= x <= 4.9 and -4.9 <= y <= 4.9 and -np.pi <= theta <= np.pi
 
 
 def test_bench_walls_counts_overlaps_of_the_true_footprint(capsys: pytest.CaptureFixture[str]) -> None:
