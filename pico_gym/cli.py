@@ -324,8 +324,8 @@ def bench_lrf(repeats: int, seed: int, scans: int = 300) -> None:
             f"{statistics.median(c):9,.0f} {ratio:6.2f}x"
         )
 
-    # A moving robot: every scan from another place (the rows above scan one pose over and over,
-    # where the CPU's branch predictors learn a whole scan's branches, both scanners' alike).
+    # A moving robot: every scan from another place. (The rows above scan one pose over and over:
+    # the same scan each time, whose branches the CPU's predictors can learn, both scanners'.)
     n_poses = 64
     print(f"\nLRF scans/s, the sensor at {n_poses} free poses in turn (>= 0.3 m from every wall, random headings)")
     print(f"{'scene':<48} {'pico-gym':>9} {'':>11} {'f1tenth':>9} {'ratio':>7}")
