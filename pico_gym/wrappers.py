@@ -381,6 +381,55 @@ class PrivilegedPointGoal(gym.Wrapper):
         return {**obs, "point_goal": point_goal(self.env)}, reward, terminated, truncated, info
 
 
+# The odometry trail (`OdometryTrail`): a position every second, the last minute, within 2 m.
+TRAIL_EVERY_S = 1.0
+TRAIL_S = 60.0
+TRAIL_RADIUS_M = 2.0
+
+
+class OdometryTrail:
+    """Where the robot has been, around it: the odometry positions of the last `TRAIL_S` seconds
+    (one every `TRAIL_EVERY_S`), binned by bearing in the body frame into `n_bins` sectors all
+    around (bin 0 = straight behind, counter-clockwise, as `RangeMemory`); each bin reads the
+    closeness of its nearest kept position, max(0, 1 - distance / TRAIL_RADIUS_M), 0 for none.
+    A memory of the path for a reactive policy (it can tell a wall it has followed before from a
+    new one); from odometry only, so no privileged input.
+    """
+
+    def __init__(self, n_bins: int, dt_s: float) -> None:
+        if n_bins < 4:
+            raise ValueError(f"trail_sectors must be >= 4 (or 0 for none), got {n_bins}")
+        self.n_bins = n_bins
+        self.every = max(1, round(TRAIL_EVERY_S / dt_s))
+        self.points = np.zeros((max(1, round(TRAIL_S / TRAIL_EVERY_S)), 2))
+        self.count = 0  # positions kept so far (the ring holds the last len(points))
+        self.calls = 0
+
+    def reset(self) -> None:
+        self.count = 0
+        self.calls = 0
+
+    def update(self, odom: np.ndarray) -> np.ndarray:
+        """Record odometry pose `odom` (x, y, theta) when one is due; the trail in the body frame."""
+        x, y, theta = float(odom[0]), float(odom[1]), float(odom[2])
+        out = np.zeros(self.n_bins, np.float32)
+        if self.count:
+            kept = self.points[: min(self.count, len(self.points))]
+            dx, dy = kept[:, 0] - x, kept[:, 1] - y
+            distance = np.hypot(dx, dy)
+            closeness = np.maximum(0.0, 1.0 - distance / TRAIL_RADIUS_M)
+            near = closeness > 0.0
+            if near.any():
+                bearing = np.arctan2(dy[near], dx[near]) - theta
+                bins = np.floor((bearing / (2.0 * math.pi) + 0.5) % 1.0 * self.n_bins).astype(np.int64) % self.n_bins
+                np.maximum.at(out, bins, closeness[near].astype(np.float32))
+        if self.calls % self.every == 0:
+            self.points[self.count % len(self.points)] = (x, y)
+            self.count += 1
+        self.calls += 1
+        return out
+
+
 # --- the whole pipeline ---------------------------------------------------------------------
 @dataclass(frozen=True)
 class LearningConfig:
@@ -396,6 +445,7 @@ class LearningConfig:
             `scale_ranges`).
         point_goal: the frame ends with `obs["point_goal"]` (POINT_GOAL_SIZE values), which
             `PrivilegedPointGoal` adds: privileged, for the end-to-end hospital baseline only.
+        trail_sectors: bins of an `OdometryTrail` (where the robot has been, around it; 0: none).
     """
 
     n_sectors: int = 64
@@ -405,8 +455,11 @@ class LearningConfig:
     memory_sectors: int = 0
     range_scale: Literal["linear", "log"] = "linear"
     point_goal: bool = False
+    trail_sectors: int = 0
 
     def __post_init__(self) -> None:
+        if not isinstance(self.trail_sectors, int) or isinstance(self.trail_sectors, bool):
+            raise ValueError(f"trail_sectors must be an integer, got {self.trail_sectors!r}")
         if not isinstance(self.point_goal, bool):
             raise ValueError(f"point_goal must be true or false, got {self.point_goal!r}")
         if self.frame_stack < 1:
@@ -425,7 +478,8 @@ class LearningEncoder:
     call `reset` with an episode's first observation, then `encode` with each next one).
 
     One frame is [LRF sector minima..., (sector maxima... with max_pool,) (range memory... with
-    memory_sectors,) (the point goal with point_goal,) vx, vy, w] (the last three only with
+    memory_sectors,) (odometry trail... with trail_sectors,) (the point goal with point_goal,) vx,
+    vy, w] (the last three only with
     odometry="velocity"); the input is the
     last `frame_stack` frames, oldest first, the first frame repeated at a reset (gymnasium's
     FrameStackObservation with padding "reset").
@@ -441,15 +495,18 @@ class LearningEncoder:
             if config.memory_sectors
             else None
         )
+        self.trail = OdometryTrail(config.trail_sectors, dt_s) if config.trail_sectors else None
         self.frame_size = (
             config.n_sectors * (2 if config.max_pool else 1)
             + config.memory_sectors
+            + config.trail_sectors
             + (POINT_GOAL_SIZE if config.point_goal else 0)
             + (3 if config.odometry == "velocity" else 0)
         )
         low = np.zeros(self.frame_size, np.float32)
         high = np.ones(self.frame_size, np.float32)
-        self._goal_at = config.n_sectors * (2 if config.max_pool else 1) + config.memory_sectors
+        self._trail_at = config.n_sectors * (2 if config.max_pool else 1) + config.memory_sectors
+        self._goal_at = self._trail_at + config.trail_sectors
         if config.point_goal:
             low[self._goal_at + 1 : self._goal_at + POINT_GOAL_SIZE] = -1.0
         if config.odometry == "velocity":
@@ -474,6 +531,8 @@ class LearningEncoder:
             n *= 2
         if self.memory is not None:
             frame[n : n + self.config.memory_sectors] = self.memory.update(lrf, float(obs["odom"][2]))
+        if self.trail is not None:
+            frame[self._trail_at : self._goal_at] = self.trail.update(obs["odom"])
         if self.config.point_goal:
             goal = obs.get("point_goal")
             if goal is None:
@@ -502,6 +561,8 @@ class LearningEncoder:
         self._previous = np.array(obs["odom"])
         if self.memory is not None:
             self.memory.reset()
+        if self.trail is not None:
+            self.trail.reset()
         self._write_frame(obs, (0.0, 0.0, 0.0))
         fs = self.frame_size
         newest = self._stack[len(self._stack) - fs :]
@@ -592,6 +653,11 @@ class BatchedLearningEncoder:
     goal (which needs the privileged wrapper's observation)."""
 
     def __init__(self, lrf: LrfConfig, robot: RobotConfig, dt_s: float, config: LearningConfig, n: int) -> None:
+        if config.trail_sectors:
+            raise ValueError(
+                "BatchedLearningEncoder does not keep an odometry trail (trail_sectors): use LearningEncoder per "
+                "robot (in pico-gym train: vec_env: dummy)"
+            )
         if config.point_goal:
             raise ValueError(
                 "BatchedLearningEncoder does not take a point goal (PrivilegedPointGoal): use LearningEncoder per "
@@ -648,6 +714,7 @@ class PicoLearningWrapper(gym.Wrapper):
         memory_sectors: int = 0,
         range_scale: str = "linear",
         point_goal: bool = False,
+        trail_sectors: int = 0,
     ) -> None:
         config = _env_config(env)
         ones = np.ones(env.action_space.shape, np.float32)
@@ -660,6 +727,7 @@ class PicoLearningWrapper(gym.Wrapper):
             memory_sectors,
             range_scale,  # type: ignore[arg-type]
             point_goal,
+            trail_sectors,
         )
         if point_goal and "point_goal" not in getattr(env.observation_space, "spaces", {}):
             raise ValueError(

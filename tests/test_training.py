@@ -493,3 +493,26 @@ def test_vector_training_configs_it_cannot_run_are_refused(tmp_path, extra, matc
     path.write_text(TINY + extra)
     with pytest.raises(ConfigError, match=match):
         load_config(path)
+
+
+def test_every_shipped_config_loads():
+    configs = sorted(Path(DEFAULT_CONFIG).parent.glob("*.yaml"))
+    assert len(configs) >= 5
+    for path in configs:
+        load_config(path)  # raises ConfigError naming the file and key
+
+
+def test_the_trail_point_goal_policy_acts_with_its_trail(tmp_path):
+    """The point goal with an odometry trail: trained, it plays as ppo-pointgoal, whose encoder
+    keeps the same trail (its input has the trail's 16 values per frame)."""
+    config = load_config(Path(DEFAULT_CONFIG).with_name("ppo_hospital_pointgoal_trail.yaml"))
+    assert config.learning.trail_sectors == 16 and config.learning.point_goal
+    config.zoo.update(n_envs=2, n_steps=128, batch_size=128, n_epochs=1, policy_kwargs="dict(net_arch=[32, 32])")
+    config.pico.update(bc_episodes=1, bc_epochs=1, eval_freq=256, eval_episodes=1, checkpoint_freq=256)
+    kwargs = {"n_cabinets": 1, "time_limit_s": 10, "arrival": "announce", "false_announcement": "terminate"}
+    config.pico["env_kwargs"] = kwargs
+    path = train(config, tmp_path / "run", timesteps=512, progress_bar=False)
+    env = gym.make("PicoHospital-v0", **kwargs)
+    agent = make_agent("ppo-pointgoal", env, path=path)
+    assert agent.encoder.config.trail_sectors == 16
+    assert run_episode(env, agent, 3, "ppo-pointgoal").time_s > 0

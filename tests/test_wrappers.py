@@ -15,6 +15,7 @@ from pico_gym.wrappers import (
     LearningConfig,
     LrfMemory,
     MinPoolLrf,
+    OdometryTrail,
     OdomVelocity,
     PicoLearningWrapper,
     PrivilegedPointGoal,
@@ -249,6 +250,48 @@ def test_point_goal_learning_pipeline_and_its_errors():
         PrivilegedPointGoal(gym.make("PicoEscape-v0"))
     with pytest.raises(ValueError, match="point_goal"):
         LearningConfig(point_goal="yes")  # type: ignore[arg-type]
+
+
+def test_odometry_trail_bins_where_the_robot_has_been():
+    """A position kept each second, read in the body frame: bin 0 straight behind, counter-clockwise,
+    each bin the closeness (1 - distance / 2 m) of its nearest kept position."""
+    trail = OdometryTrail(16, dt_s=0.1)
+    assert not trail.update(np.array([0.0, 0.0, 0.0])).any()  # nothing kept before: all zero
+    for _ in range(9):  # within the second: the origin is the only kept position
+        trail.update(np.array([1.0, 0.0, 0.0]))
+    behind = trail.update(np.array([1.0, 0.0, 0.0]))  # the 11th call (kept): the origin 1 m straight behind
+    assert behind[0] == pytest.approx(0.5) and np.count_nonzero(behind) == 1
+    left = trail.update(np.array([0.0, -1.0, 0.0]))  # the origin 1 m to the left (bin 12), (1, 0) at 45 deg
+    assert left[12] == pytest.approx(0.5) and left[10] == pytest.approx(1 - math.sqrt(0.5))
+    assert np.count_nonzero(left) == 2
+    ahead = trail.update(np.array([0.0, -1.0, math.pi / 2]))  # turned to face it: straight ahead, bin 8
+    assert ahead[8] == pytest.approx(0.5)
+    assert not trail.update(np.array([5.0, 5.0, 0.0])).any()  # farther than 2 m from every position
+    trail.reset()
+    assert not trail.update(np.array([1.0, 0.0, 0.0])).any()
+    with pytest.raises(ValueError, match="trail_sectors must be >= 4"):
+        OdometryTrail(3, dt_s=0.1)
+
+
+def test_the_trail_sits_before_the_point_goal_and_needs_the_per_robot_encoder():
+    base = PrivilegedPointGoal(gym.make("PicoHospital-v0", n_cabinets=2))
+    env = PicoLearningWrapper(base, n_sectors=16, frame_stack=2, point_goal=True, trail_sectors=8)
+    x, _ = env.reset(seed=1)
+    frame = env.observation_space.shape[0] // 2
+    assert frame == 16 + 8 + POINT_GOAL_SIZE + 3 and env.observation_space.contains(x)
+    np.testing.assert_array_equal(x[frame + 16 : frame + 24], 0.0)  # nothing kept yet
+    np.testing.assert_array_equal(x[frame + 24 : frame + 24 + POINT_GOAL_SIZE], point_goal(env))
+    for _ in range(30):
+        x, *_ = env.step(np.array([0.3, 0.0, 0.0]))
+    assert x[frame + 16 : frame + 24].max() > 0.0  # where it came from
+    from pico_gym.agents.base import RobotSpec
+    from pico_gym.wrappers import BatchedLearningEncoder
+
+    spec = RobotSpec.of(base)
+    with pytest.raises(ValueError, match="odometry trail"):
+        BatchedLearningEncoder(spec.lrf, spec.robot, spec.dt_s, LearningConfig(trail_sectors=8), 2)
+    with pytest.raises(ValueError, match="trail_sectors must be an integer"):
+        LearningConfig(trail_sectors=2.5)  # type: ignore[arg-type]
 
 
 @pytest.mark.parametrize(
