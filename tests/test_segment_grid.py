@@ -129,11 +129,15 @@ def test_one_sided_culling_gives_the_same_scan() -> None:
     scene = env.unwrapped.scene
     assert isinstance(scene.lrf_static, SegmentGrid)
     lrf = Lrf(LrfConfig())
+    # Without flags the cast is compiled without the back-face test; both give the same scan.
+    unflagged = SegmentGrid(scene.static_seen)
+    assert scene.lrf_static._one_sided is not None and unflagged._one_sided is None
     rng = np.random.default_rng(0)
     for _ in range(10):
         pose = env.unwrapped.pose
         pose = Pose(pose.x + rng.normal(0, 0.3), pose.y + rng.normal(0, 0.3), float(rng.uniform(-3, 3)))
         culled = lrf.exact(pose, scene.lrf_static).copy()
+        np.testing.assert_array_equal(culled, lrf.exact(pose, unflagged))
         culled[culled > 10.0] = np.inf
         assert_same(culled, brute_force(tuple(pose), scene.static_seen, lrf.beam_angles, 10.0))
     env.close()
