@@ -140,7 +140,9 @@ class PpoAgent(Agent):
         shield: pass the policy's twist through the classic agents' safety filter on the current
             scan (`pico_gym.agents.classic.potential_field`: turns cut near corners, the command
             scaled down until the footprint keeps its margin from the scan's points). It knows
-            only what the LRF sees now: nothing behind the robot.
+            only what the LRF sees now: nothing behind the robot. None (default): as the policy's
+            metadata says (`"shield"`, written by the ship script for a policy shipped shielded;
+            off when absent).
     """
 
     name = "ppo"
@@ -154,13 +156,14 @@ class PpoAgent(Agent):
         deterministic: bool = True,
         seed: int = 0,
         goal: Callable[[], np.ndarray] | None = None,
-        shield: bool = False,
+        shield: bool | None = None,
     ) -> None:
         super().__init__(spec)
-        if not isinstance(shield, bool):
-            raise ValueError(f"PpoAgent(shield=...) must be true or false, got {shield!r}")
+        if shield is not None and not isinstance(shield, bool):
+            raise ValueError(f"PpoAgent(shield=...) must be true, false or None, got {shield!r}")
+        meta: dict[str, Any] = {}
         if model is None:
-            actor, learning, _ = load_actor(path or SHIPPED_POLICY)
+            actor, learning, meta = load_actor(path or SHIPPED_POLICY)
         elif learning is None:
             raise ValueError("PpoAgent(model=...) needs the LearningConfig it was trained with")
         else:
@@ -183,6 +186,10 @@ class PpoAgent(Agent):
         self._low, self._high = spec.robot.action_low, spec.robot.action_high
         self._first: np.ndarray | None = None
         self._goal = goal if learning.point_goal else None
+        if shield is None:
+            shield = meta.get("shield", False)
+            if not isinstance(shield, bool):
+                raise ValueError(f"{path or SHIPPED_POLICY}: bad policy metadata (shield must be true or false)")
         self.shield = shield
         if shield:
             from pico_gym.agents.classic.potential_field import motion_for

@@ -514,5 +514,19 @@ def test_the_trail_point_goal_policy_acts_with_its_trail(tmp_path):
     path = train(config, tmp_path / "run", timesteps=512, progress_bar=False)
     env = gym.make("PicoHospital-v0", **kwargs)
     agent = make_agent("ppo-pointgoal", env, path=path)
-    assert agent.encoder.config.trail_sectors == 16
+    assert agent.encoder.config.trail_sectors == 16 and not agent.shield
     assert run_episode(env, agent, 3, "ppo-pointgoal").time_s > 0
+    # Shipped shielded: its agent is shielded unless told otherwise, and its card says so.
+    from dataclasses import replace
+
+    from pico_gym.train.ship import TARGETS, ship
+
+    models = tmp_path / "models"
+    models.mkdir()
+    target = replace(TARGETS["hospital-pointgoal"], policy=models / "pg.npz", card=models / "CARD.md")
+    ship(path, episodes=1, seed=5, target=target, shield=True)
+    assert "Shielded" in target.card.read_text()
+    assert make_agent("ppo-pointgoal", env, path=target.policy).shield
+    assert not make_agent("ppo-pointgoal", env, path=target.policy, shield=False).shield
+    with pytest.raises(ValueError, match="shield"):
+        make_agent("ppo-pointgoal", env, path=target.policy, shield="yes")

@@ -163,7 +163,12 @@ def ship(
     picked: str = "",
     note: str = "",
     target: Target = TARGETS["escape"],
+    shield: bool = False,
 ) -> Path:
+    """Ship `source` as `target`'s policy: copy it, export its arrays, evaluate it on `episodes`
+    seeds from `seed`, write its card. `shield`: the policy ships shielded (its agent passes the
+    twist through the classic safety filter unless told otherwise; `PpoAgent(shield=...)`), and
+    is evaluated so."""
     SHIPPED_MODEL, SHIPPED_POLICY = target.model, target.policy  # noqa: N806
     realism = realism and target.realism
     run_dir = source.parent.parent if source.parent.name == "checkpoints" else source.parent
@@ -191,6 +196,7 @@ def ship(
         }
     evals = list(csv.DictReader((run_dir / "eval.csv").open())) if (run_dir / "eval.csv").exists() else []
     meta["wall_clock_s"] = wall_clock(run_dir, int(meta.get("timesteps", -1))) or done.get("wall_clock_s")
+    meta["shield"] = shield
     SHIPPED_MODEL.parent.mkdir(parents=True, exist_ok=True)
     shutil.copyfile(source, SHIPPED_MODEL)
     policy_metadata_path(SHIPPED_MODEL).write_text(json.dumps(meta, indent=1, default=str) + "\n")
@@ -266,6 +272,15 @@ def _write_card(meta: dict[str, Any], config: dict[str, Any], rows: list[str], t
         f"- PPO (stable-baselines3 {run.get('versions', {}).get('stable-baselines3', '?')}), MLP policy, "
         f"trained on {target.trained_on} (seeds >= 1,000,000), env kwargs {meta.get('env_kwargs') or {}}.",
         *([f"- {target.privileged}"] if target.privileged else []),
+        *(
+            [
+                "- Shielded: its agent passes the policy's twist through the classic agents' safety filter on the "
+                "current scan (`PpoAgent(shield=True)`, the default this policy's metadata sets); the table is "
+                "measured so."
+            ]
+            if meta.get("shield")
+            else []
+        ),
         "- Observation: `PicoLearningWrapper("
         + ", ".join(f"{k}={v!r}" for k, v in meta["learning"].items())
         + ")` (min-pooled LRF sectors, 360-degree range memory, odometry velocity, frame stack); "
@@ -320,6 +335,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--picked", default="", help="how this policy was chosen among the run's")
     p.add_argument("--wall-clock-note", default="", help="context for the wall-clock figure")
     p.add_argument("--target", choices=sorted(TARGETS), default="escape", help="which agent's policy this is")
+    p.add_argument("--shield", action="store_true", help="ship it shielded (the classic safety filter on its twist)")
     args = p.parse_args(argv)
     path = ship(
         args.policy,
@@ -330,6 +346,7 @@ def main(argv: list[str] | None = None) -> int:
         picked=args.picked,
         note=args.wall_clock_note,
         target=TARGETS[args.target],
+        shield=args.shield,
     )
     print(f"shipped {path} ({path.stat().st_size / 1e6:.1f} MB); card: {TARGETS[args.target].card}")
     return 0
