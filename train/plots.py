@@ -23,6 +23,19 @@ def _lineage(run_dir: Path, name: str, key: str) -> list[dict[str, str]]:
     return rows
 
 
+def _env_id(run_dir: Path) -> str:
+    """The env a run trained on (its resolved config's env block), PicoEscape-v0 if unknown."""
+    import yaml
+
+    config = run_dir / "config.yaml"
+    blocks = (
+        [k for k in (yaml.safe_load(config.read_text()) or {}) if k not in ("pico-gym", "run")]
+        if config.exists()
+        else []
+    )
+    return blocks[0] if blocks else "PicoEscape-v0"
+
+
 def plot_learning_curve(
     run_dir: str | Path, out: str | Path, mark: int | None = None, title: str | None = None
 ) -> Path:
@@ -62,7 +75,7 @@ def plot_learning_curve(
     ax.set_ylim(0, 100)
     ax.grid(alpha=0.3)
     ax.legend(loc="center right")
-    ax.set_title(title or f"PPO on PicoEscape-v0: {run_dir.name}")
+    ax.set_title(title or f"PPO on {_env_id(run_dir)}: {run_dir.name}")
     fig.tight_layout()
     fig.savefig(out)
     plt.close(fig)
@@ -78,4 +91,5 @@ if __name__ == "__main__":
         (run / "progress.csv").write_bytes(tb.read_bytes())
     out = sys.argv[2] if len(sys.argv) > 2 else run / "learning_curve.png"
     mark = int(sys.argv[3]) if len(sys.argv) > 3 else None
-    print(plot_learning_curve(run, out, mark, "PPO on PicoEscape-v0 (train/configs/ppo_escape.yaml, seed 0)"))
+    title = sys.argv[4] if len(sys.argv) > 4 else None  # default: the run's env and directory
+    print(plot_learning_curve(run, out, mark, title))
