@@ -296,11 +296,16 @@ def test_a_config_with_two_env_blocks_is_refused(tmp_path):
         load_config(path)
 
 
-def test_without_a_shipped_point_goal_policy_the_error_says_so():
-    from pico_gym.agents.ppo import SHIPPED_POINTGOAL_POLICY
+def test_the_shipped_point_goal_policy_plays_shielded_and_its_absence_is_named(monkeypatch):
+    import pico_gym.agents.ppo as ppo_module
 
-    if SHIPPED_POINTGOAL_POLICY.exists():
-        pytest.skip("a ppo-pointgoal policy is shipped")
+    env = gym.make("PicoHospital-v0", n_cabinets=2, arrival="announce", false_announcement="terminate")
+    agent = make_agent("ppo-pointgoal", env)  # the shipped arrays: numpy only
+    assert agent.shield and agent.encoder.config.trail_sectors == 16
+    assert run_episode(env, agent, 67000, "ppo-pointgoal").time_s > 0
+    monkeypatch.setattr(
+        ppo_module, "SHIPPED_POINTGOAL_POLICY", ppo_module.SHIPPED_POINTGOAL_POLICY.with_name("none.npz")
+    )
     with pytest.raises(FileNotFoundError, match="no ppo-pointgoal policy is shipped"):
         make_agent("ppo-pointgoal", gym.make("PicoHospital-v0"))
 
