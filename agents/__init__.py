@@ -23,6 +23,8 @@ PRIVILEGED_AGENTS = ("classic-oracle", "ppo-pointgoal")
 # Agents that play the hospital's arrival="announce" mode (a fourth action component); a
 # ppo-pointgoal policy plays the mode it was trained in (checked against its outputs).
 ANNOUNCING_AGENTS = ("classic", "classic-oracle", "hybrid", "ppo-pointgoal")
+# Floor baselines that can play arrival="announce" without announcing (`never_announce=True`).
+NEVER_ANNOUNCING = ("wall-follow", "random")
 CLASSIC_ENVS = ("PicoEscape-v0", "PicoHospital-v0", "PicoExplore-v0")  # the classic agent has a strategy for these
 
 
@@ -33,7 +35,8 @@ def make_agent(name: str, env: gym.Env, **kwargs: Any) -> Agent:
         name: one of AGENTS.
         env: the env (only its robot's public spec is used).
         **kwargs: passed to the agent (e.g. `seed` for random, `config` for classic, `path` for
-            ppo: a policy zip other than the shipped one).
+            ppo: a policy zip other than the shipped one); `never_announce=True` lets wall-follow
+            and random play PicoHospital-v0's arrival="announce" mode without ever announcing.
 
     Raises:
         ValueError: for an unknown name, listing the known ones.
@@ -46,11 +49,16 @@ def make_agent(name: str, env: gym.Env, **kwargs: Any) -> Agent:
         others = "classic, wall-follow, random" if name == "ppo" and env_id in CLASSIC_ENVS else "wall-follow, random"
         raise ValueError(f"the {name} agent plays {plays} only so far; on {env_id} use: {others}")
     announcing = env_id == "PicoHospital-v0" and name in ANNOUNCING_AGENTS
-    if env.action_space.shape != (3,) and not (announcing and env.action_space.shape == (4,)):
+    never_announce = kwargs.pop("never_announce", False)
+    if not isinstance(never_announce, bool):
+        raise ValueError(f"never_announce must be true or false, got {never_announce!r}")
+    silent = env_id == "PicoHospital-v0" and name in NEVER_ANNOUNCING and never_announce
+    if env.action_space.shape != (3,) and not ((announcing or silent) and env.action_space.shape == (4,)):
         raise ValueError(
             f"the {name} agent acts with a twist (vx, vy, w); {env_id} here takes {env.action_space.shape[0]} "
             f"action components (arrival='announce'): use arrival='dwell', or an agent that announces: "
             f"{', '.join(ANNOUNCING_AGENTS)} (PicoHospital-v0)"
+            + (", or never_announce=True (it then never announces)" if name in NEVER_ANNOUNCING else "")
         )
     if name == "classic-oracle":
         if env_id != "PicoHospital-v0":
@@ -107,14 +115,11 @@ def make_agent(name: str, env: gym.Env, **kwargs: Any) -> Agent:
         from pico_gym.agents.ppo import PpoAgent
 
         return PpoAgent(spec, **kwargs)
-    if name == "wall-follow":
-        from pico_gym.agents.baselines import WallFollowAgent
+    if name in NEVER_ANNOUNCING:
+        from pico_gym.agents.baselines import NeverAnnounces, RandomAgent, WallFollowAgent
 
-        return WallFollowAgent(spec, **kwargs)
-    if name == "random":
-        from pico_gym.agents.baselines import RandomAgent
-
-        return RandomAgent(spec, **kwargs)
+        baseline = (WallFollowAgent if name == "wall-follow" else RandomAgent)(spec, **kwargs)
+        return NeverAnnounces(baseline) if env.action_space.shape == (4,) else baseline
     raise ValueError(f"unknown agent {name!r}; agents: {', '.join(AGENTS)}")
 
 

@@ -75,3 +75,23 @@ class WallFollowAgent(Agent):
 
     def overlay(self) -> Overlay:
         return Overlay(frame="robot", text=f"wall-follow: {self._state}")
+
+
+class NeverAnnounces(Agent):
+    """A twist agent playing PicoHospital-v0's arrival="announce" mode: its twist, and an
+    announcement component that never announces (-1). For floor baselines in a comparison of
+    announcing agents (`make_agent(..., never_announce=True)`): they can then count no cabinet."""
+
+    def __init__(self, agent: Agent) -> None:
+        super().__init__(agent.spec)
+        self.agent = agent
+        self.name = agent.name
+
+    def reset(self, obs: dict[str, np.ndarray], info: dict[str, Any] | None = None) -> None:
+        self.agent.reset(obs, info)
+
+    def act(self, obs: dict[str, np.ndarray]) -> np.ndarray:
+        return np.append(self.agent.act(obs), np.float32(-1.0)).astype(np.float32)
+
+    def overlay(self) -> Overlay | None:
+        return self.agent.overlay()

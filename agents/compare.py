@@ -27,7 +27,7 @@ import gymnasium as gym
 import numpy as np
 
 import pico_gym  # noqa: F401
-from pico_gym.agents import make_agent
+from pico_gym.agents import NEVER_ANNOUNCING, make_agent
 from pico_gym.agents.evaluation import (
     DEFAULT_ENV_ID,
     EpisodeRecord,
@@ -406,6 +406,12 @@ def compare(
     an agent that cannot be built) is checked before the first one.
     """
     require("matplotlib", "plots", "pico-gym compare's plots")
+    if episodes.env_options.get("arrival") == "announce":
+        # The floor baselines play the announcing episodes too, never announcing.
+        agent_kwargs = {
+            **(agent_kwargs or {}),
+            **{n: {"never_announce": True, **(agent_kwargs or {}).get(n, {})} for n in agents if n in NEVER_ANNOUNCING},
+        }
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     probe = gym.make(episodes.env_id, **episodes.env_kwargs(episodes.groups[0][0]))

@@ -120,6 +120,18 @@ def test_the_hospital_suite_holds_the_issue_settings_and_tables_each_group(tmp_p
     assert all(len(r["bump_xy"]) == r["bumps"] for r in records)  # random bumps: each one placed
 
 
+def test_an_announcing_comparison_lets_the_floor_baselines_play_silent(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """With arrival="announce" every agent plays the same episodes: wall-follow and random never announce."""
+    from pico_gym.agents.compare import compare
+
+    options = {"arrival": "announce", "false_announcement": "terminate", "time_limit_s": 5}
+    episodes = Episodes.suite("generated", 1, 3, options, env_id="PicoHospital-v0")
+    compare(["random", "wall-follow"], episodes, tmp_path, workers=1, n_rooms=0)
+    records = json.loads((tmp_path / "results.json").read_text())["episodes"]
+    assert {r["agent"] for r in records} == {"random", "wall-follow"}
+    assert all(r["false_announcements"] == 0 for r in records)
+
+
 def test_hospital_records_time_each_leg() -> None:
     import gymnasium as gym
 

@@ -267,6 +267,28 @@ def test_agents_that_cannot_announce_say_so() -> None:
     env = gym.make("PicoHospital-v0", arrival="announce")
     with pytest.raises(ValueError, match="agent that announces: classic"):
         make_agent("wall-follow", env)
+    with pytest.raises(ValueError, match="never_announce"):
+        make_agent("random", env, never_announce="yes")
+
+
+@pytest.mark.parametrize("name", ["wall-follow", "random"])
+def test_floor_baselines_play_the_announce_mode_without_announcing(name: str) -> None:
+    """never_announce=True: the same twists as in the dwell mode, and an announcement that never comes."""
+    announce = gym.make("PicoHospital-v0", arrival="announce", time_limit_s=5)
+    dwell = gym.make("PicoHospital-v0", time_limit_s=5)
+    silent, plain = make_agent(name, announce, never_announce=True), make_agent(name, dwell)
+    assert silent.name == name
+    (obs_a, info_a), (obs_d, info_d) = announce.reset(seed=4), dwell.reset(seed=4)
+    silent.reset(obs_a, info_a)
+    plain.reset(obs_d, info_d)
+    for _ in range(20):
+        a, d = silent.act(obs_a), plain.act(obs_d)
+        assert a.shape == (4,) and a[3] < 0 and np.array_equal(a[:3], d)
+        obs_a, _, term_a, trunc_a, info_a = announce.step(a)
+        obs_d, _, term_d, trunc_d, _ = dwell.step(d)
+        if term_a or trunc_a or term_d or trunc_d:
+            break
+    assert info_a["false_announcements"] == 0
 
 
 def _kidnap(env: gym.Env, x: float, y: float, theta: float) -> None:
