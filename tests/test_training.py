@@ -487,15 +487,20 @@ def test_training_with_the_vector_env_learns_what_the_dummy_path_learns(tiny_con
 
 
 @pytest.mark.parametrize(
-    "extra,match",
+    "extra,wrapper,match",
     [
-        ("  vec_env: vectorised\n", "vec_env must be one of"),
-        ("  vec_env: vector\n  train_env_variants: [{n_obstacles: 1}]\n", "1 train_env_variants: use vec_env: dummy"),
+        ("  vec_env: vectorised\n", "", "vec_env must be one of"),
+        (
+            "  vec_env: vector\n  train_env_variants: [{n_obstacles: 1}]\n",
+            "",
+            "1 train_env_variants: use vec_env: dummy",
+        ),
+        ("  vec_env: vector\n", "        trail_sectors: 8\n", "trail_sectors: use vec_env: dummy"),
     ],
 )
-def test_vector_training_configs_it_cannot_run_are_refused(tmp_path, extra, match):
+def test_vector_training_configs_it_cannot_run_are_refused(tmp_path, extra, wrapper, match):
     path = tmp_path / "bad.yaml"
-    path.write_text(TINY + extra)
+    path.write_text(TINY.replace("        frame_stack: 2\n", "        frame_stack: 2\n" + wrapper) + extra)
     with pytest.raises(ConfigError, match=match):
         load_config(path)
 

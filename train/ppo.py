@@ -178,6 +178,11 @@ def check_vector(config: TrainConfig) -> None:
             f"learning wrapper alone; this config has env_wrapper {wrappers} and {len(variants)} "
             "train_env_variants: use vec_env: dummy"
         )
+    if config.learning.trail_sectors:
+        raise ConfigError(
+            f"{config.source}: {PICO_KEY}.vec_env 'vector' encodes every robot in one call without an odometry "
+            "trail; this config's PicoLearningWrapper has trail_sectors: use vec_env: dummy"
+        )
 
 
 def _policy_kwargs(text: str | dict[str, Any] | None, source: str) -> dict[str, Any]:
