@@ -52,6 +52,8 @@ def make_agent(name: str, env: gym.Env, **kwargs: Any) -> Agent:
     never_announce = kwargs.pop("never_announce", False)
     if not isinstance(never_announce, bool):
         raise ValueError(f"never_announce must be true or false, got {never_announce!r}")
+    if never_announce and name not in NEVER_ANNOUNCING:
+        raise ValueError(f"never_announce is for the floor baselines ({', '.join(NEVER_ANNOUNCING)}), not {name}")
     silent = env_id == "PicoHospital-v0" and name in NEVER_ANNOUNCING and never_announce
     if env.action_space.shape != (3,) and not ((announcing or silent) and env.action_space.shape == (4,)):
         raise ValueError(

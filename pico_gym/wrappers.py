@@ -479,10 +479,9 @@ class LearningEncoder:
 
     One frame is [LRF sector minima..., (sector maxima... with max_pool,) (range memory... with
     memory_sectors,) (odometry trail... with trail_sectors,) (the point goal with point_goal,) vx,
-    vy, w] (the last three only with
-    odometry="velocity"); the input is the
-    last `frame_stack` frames, oldest first, the first frame repeated at a reset (gymnasium's
-    FrameStackObservation with padding "reset").
+    vy, w] (the last three only with odometry="velocity"); the input is the last `frame_stack`
+    frames, oldest first, the first frame repeated at a reset (gymnasium's FrameStackObservation
+    with padding "reset").
     """
 
     def __init__(self, lrf: LrfConfig, robot: RobotConfig, dt_s: float, config: LearningConfig) -> None:

@@ -269,6 +269,8 @@ def test_agents_that_cannot_announce_say_so() -> None:
         make_agent("wall-follow", env)
     with pytest.raises(ValueError, match="never_announce"):
         make_agent("random", env, never_announce="yes")
+    with pytest.raises(ValueError, match="never_announce is for the floor baselines"):
+        make_agent("classic", env, never_announce=True)
 
 
 @pytest.mark.parametrize("name", ["wall-follow", "random"])
