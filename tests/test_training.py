@@ -197,6 +197,23 @@ def test_init_from_another_runs_checkpoint(tiny_config, tmp_path):
     assert "proximity: 1.0" in (tmp_path / "b" / "config.yaml").read_text()
 
 
+def test_init_from_a_policy_zip_carries_its_own_step_count(tiny_config, tmp_path):
+    """A policy zip without the count in its name (a run's model.zip, a shipped policy) carries
+    on from the count it holds; asking for no more steps than that is refused, not a silent no-op."""
+    train(tiny_config, tmp_path / "a", timesteps=1024, progress_bar=False)
+    policy = tmp_path / "shipped.zip"
+    policy.write_bytes((tmp_path / "a" / "model.zip").read_bytes())
+    with pytest.raises(ConfigError, match=r"has 1,024 steps already .*--timesteps 1,024 trains nothing"):
+        train(tiny_config, tmp_path / "b", timesteps=1024, progress_bar=False, init_from=policy)
+    train(tiny_config, tmp_path / "c", timesteps=2048, progress_bar=False, init_from=policy)
+    assert json.loads((tmp_path / "c" / "init_from.json").read_text())["timesteps"] == 1024
+    assert json.loads((tmp_path / "c" / "done.json").read_text())["timesteps"] == 2048
+    not_a_policy = tmp_path / "notes.zip"
+    not_a_policy.write_bytes(b"PK not a zip")
+    with pytest.raises(ConfigError, match="not a stable-baselines3 policy zip"):
+        train(tiny_config, tmp_path / "d", timesteps=2048, progress_bar=False, init_from=not_a_policy)
+
+
 def test_a_run_killed_while_saving_resumes_from_the_last_whole_checkpoint(tiny_config, tmp_path, capsys):
     run = tmp_path / "run"
     train(tiny_config, run, timesteps=1024, seed=0, progress_bar=False)

@@ -563,6 +563,17 @@ def _readable_zip(path: Path) -> bool:
         return False
 
 
+def _zip_timesteps(path: Path) -> int:
+    """The env steps a stable-baselines3 policy zip was trained for (its `data` record)."""
+    import zipfile
+
+    try:
+        with zipfile.ZipFile(path) as z:
+            return int(json.loads(z.read("data"))["num_timesteps"])
+    except (OSError, zipfile.BadZipFile, EOFError, KeyError, ValueError, TypeError) as err:
+        raise ConfigError(f"--init-from {path}: not a stable-baselines3 policy zip ({err})") from None
+
+
 def _readable_pickle(path: Path) -> bool:
     import pickle
 
@@ -690,8 +701,14 @@ def train(
         init_from = Path(init_from)
         if not init_from.is_file():
             raise FileNotFoundError(f"--init-from: no checkpoint at {init_from}")
-        m = re.fullmatch(r"ppo_(\d+)_steps\.zip", init_from.name)
-        start = int(m.group(1)) if m else 0
+        # The step count carries on from the policy's own (a shipped policy or a run's model.zip
+        # has no count in its name).
+        start = _zip_timesteps(init_from)
+        if total <= start:
+            raise ConfigError(
+                f"--init-from {init_from}: the policy has {start:,} steps already and the step count carries "
+                f"on, so --timesteps {total:,} trains nothing; ask for {start:,} + the steps to train"
+            )
         (run_dir / "checkpoints").mkdir(parents=True, exist_ok=True)
         first = run_dir / "checkpoints" / f"ppo_{start}_steps.zip"
         first.write_bytes(init_from.read_bytes())
