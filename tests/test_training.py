@@ -359,6 +359,8 @@ def test_ship_counts_a_checkpoint_between_evaluations_and_a_start_from_a_shipped
     assert wall_clock(run, 5750000) == pytest.approx(120.0)
     assert wall_clock(run, 6000000) == pytest.approx(180.0)
     assert wall_clock(run, 7000000) is None  # after the last evaluation: unknown
+    (run / "done.json").write_text(json.dumps({"timesteps": 7000000, "wall_clock_s": 420.0}))
+    assert wall_clock(run, 6500000) == pytest.approx(300.0)  # ... unless the run's end says
     lines = history(run)
     assert "agents/models/ppo_escape.zip" in lines[0] and "not a run directory" in lines[0]
     assert lines[-1] == "`pico-gym train --config x.yaml`"

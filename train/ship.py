@@ -98,11 +98,17 @@ def _row(name: str, s: Summary) -> str:
 
 def wall_clock(run_dir: Path, timesteps: int) -> float | None:
     """Seconds of training to reach `timesteps` (an evaluation point): behaviour cloning, the
-    run's own learning time, and that of the run it started from (--init-from), if any."""
+    run's own learning time, and that of the run it started from (--init-from), if any. Between
+    two evaluations, or between the last one and the run's end (done.json), interpolated."""
     bc = run_dir / "behaviour_cloning.json"
     seconds = json.loads(bc.read_text())["seconds"] if bc.exists() else 0.0
     rows = list(csv.DictReader((run_dir / "eval.csv").open())) if (run_dir / "eval.csv").exists() else []
     points = sorted((int(r["timesteps"]), float(r["wall_clock_s"])) for r in rows)
+    done = run_dir / "done.json"
+    if done.exists():
+        end = json.loads(done.read_text())
+        if not points or int(end["timesteps"]) > points[-1][0]:
+            points.append((int(end["timesteps"]), float(end["wall_clock_s"])))
     at = [w for t, w in points if t == timesteps]
     if not at:
         # A checkpoint between two evaluations: interpolated.
