@@ -33,7 +33,7 @@ from pico_gym.agents.classic.perception import perceive
 from pico_gym.agents.classic.potential_field import (
     MotionConfig,
     attract_and_repel,
-    footprint_distance,
+    footprint_clearance,
     heading_rate,
     keep_in_view,
     motion_for,
@@ -208,7 +208,7 @@ class ClassicAgent(Agent):
         stale memory, not obstacles)."""
         if len(obstacles) == 0:
             return True
-        real = obstacles[footprint_distance(obstacles, self.motion)[0] > 0.0]
+        real = obstacles[footprint_clearance(obstacles, self.motion) > 0.0]
         return len(real) == 0 or float(np.hypot(real[:, 0], real[:, 1]).min()) > self.config.rotate_clearance
 
     def _away(self, obstacles: FloatArray) -> tuple[float, float, float]:

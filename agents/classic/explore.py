@@ -48,6 +48,7 @@ from pico_gym.agents.classic.astar import string_pull
 from pico_gym.agents.classic.localisation import scan_points
 from pico_gym.agents.classic.potential_field import (
     attract_and_repel,
+    footprint_clearance,
     footprint_distance,
     heading_rate,
     keep_in_view,
@@ -1412,7 +1413,7 @@ class ExploreAgent(Agent):
         travel = math.atan2(target[1] - here[1], target[0] - here[0])
         tight = self._tight_ahead(here, 1.2)
         # Slower the closer anything is (the map behind the robot may be a few centimetres off).
-        closest = float(footprint_distance(near, self.motion)[0].min()) if len(near) else 1.0
+        closest = float(footprint_clearance(near, self.motion).min()) if len(near) else 1.0
         speed = min(0.2 if tight else cfg.cruise_mps, max(0.08, 0.08 + 1.5 * (closest - 0.05)))
         goal = self._to_robot(target)
         v = attract_and_repel(near, goal, self.follow, speed=speed)
@@ -1463,7 +1464,7 @@ class ExploreAgent(Agent):
         step, which, step after step, is a slow drive into the wall)."""
         if len(near) == 0:
             return vx, vy, w
-        d_now = footprint_distance(near, self.motion)[0]
+        d_now = footprint_clearance(near, self.motion)
         close = d_now < 0.05
         if not close.any():
             return vx, vy, w
@@ -1471,7 +1472,7 @@ class ExploreAgent(Agent):
         a = -w * 0.3
         c, s = math.cos(a), math.sin(a)
         moved = (pts - np.array([vx, vy]) * 0.3) @ np.array([[c, -s], [s, c]]).T
-        d_after = footprint_distance(moved, self.motion)[0]
+        d_after = footprint_clearance(moved, self.motion)
         if np.any((d_after < 0.025) & (d_after < d_now[close] - 1e-4)):
             return 0.0, 0.0, 0.0
         return vx, vy, w

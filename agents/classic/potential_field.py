@@ -74,6 +74,14 @@ def motion_for(spec: RobotSpec) -> MotionConfig:
     )
 
 
+def footprint_clearance(points: FloatArray, cfg: MotionConfig) -> FloatArray:
+    """Distance from robot-frame points to the footprint rectangle (`footprint_distance` without
+    the directions: the safety checks run it several times a step)."""
+    dx = np.maximum(np.abs(points[:, 0]) - cfg.half_depth, 0.0)
+    dy = np.maximum(np.abs(points[:, 1]) - cfg.half_width, 0.0)
+    return np.hypot(dx, dy)
+
+
 def footprint_distance(points: FloatArray, cfg: MotionConfig) -> tuple[FloatArray, FloatArray]:
     """Distance from robot-frame points to the footprint rectangle, and unit directions away from it."""
     ax, ay = np.abs(points[:, 0]), np.abs(points[:, 1])
@@ -135,7 +143,7 @@ def _distances_after(points: FloatArray, vx: float, vy: float, w: float, t: floa
     c, s = math.cos(a), math.sin(a)
     shifted = points - np.array([vx, vy]) * t
     moved = shifted @ np.array([[c, -s], [s, c]]).T
-    return footprint_distance(moved, cfg)[0]
+    return footprint_clearance(moved, cfg)
 
 
 def safety_filter(
@@ -154,7 +162,7 @@ def safety_filter(
     near = points[np.hypot(points[:, 0], points[:, 1]) < 1.0]
     if len(near) == 0:
         return command
-    d_now = footprint_distance(near, cfg)[0]
+    d_now = footprint_clearance(near, cfg)
     near, d_now = near[d_now > 0.0], d_now[d_now > 0.0]
     if len(near) == 0:
         return command
@@ -215,12 +223,12 @@ def safe_turn(near: FloatArray, w: float, cfg: MotionConfig, horizon_s: float = 
     close = near[np.hypot(near[:, 0], near[:, 1]) < 0.5]
     if len(close) == 0:
         return w
+    d_now = footprint_clearance(close, cfg)
     for scale in (1.0, 0.5, 0.25, 0.0):
         a = -w * scale * horizon_s
         c, s = math.cos(a), math.sin(a)
         turned = close @ np.array([[c, -s], [s, c]]).T
-        d_now = footprint_distance(close, cfg)[0]
-        d_after = footprint_distance(turned, cfg)[0]
+        d_after = footprint_clearance(turned, cfg)
         if np.all((d_after >= keep_m) | (d_after >= d_now)):
             return w * scale
     return 0.0
