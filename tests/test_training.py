@@ -205,6 +205,7 @@ def test_init_from_a_policy_zip_carries_its_own_step_count(tiny_config, tmp_path
     policy.write_bytes((tmp_path / "a" / "model.zip").read_bytes())
     with pytest.raises(ConfigError, match=r"has 1,024 steps already .*--timesteps 1,024 trains nothing"):
         train(tiny_config, tmp_path / "b", timesteps=1024, progress_bar=False, init_from=policy)
+    assert not (tmp_path / "b").exists()  # refused before anything is written
     train(tiny_config, tmp_path / "c", timesteps=2048, progress_bar=False, init_from=policy)
     assert json.loads((tmp_path / "c" / "init_from.json").read_text())["timesteps"] == 1024
     assert json.loads((tmp_path / "c" / "done.json").read_text())["timesteps"] == 2048

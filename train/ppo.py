@@ -685,7 +685,6 @@ def train(
 
     started = time.perf_counter()
     run_dir = Path(run_dir)
-    run_dir.mkdir(parents=True, exist_ok=True)
     torch.set_num_threads(int(config.pico["torch_threads"]))
     total = int(timesteps if timesteps is not None else float(config.zoo["n_timesteps"]))
     normalized = _normalize_kwargs(config.zoo.get("normalize"), config.source) is not None
@@ -709,7 +708,7 @@ def train(
                 f"--init-from {init_from}: the policy has {start:,} steps already and the step count carries "
                 f"on, so --timesteps {total:,} trains nothing; ask for {start:,} + the steps to train"
             )
-        (run_dir / "checkpoints").mkdir(parents=True, exist_ok=True)
+        (run_dir / "checkpoints").mkdir(parents=True, exist_ok=True)  # (after the checks: a refusal leaves no run)
         first = run_dir / "checkpoints" / f"ppo_{start}_steps.zip"
         first.write_bytes(init_from.read_bytes())
         stats = init_from.with_name(f"ppo_vecnormalize_{start}_steps.pkl")
@@ -717,6 +716,7 @@ def train(
             (run_dir / "checkpoints" / stats.name).write_bytes(stats.read_bytes())
         (run_dir / "init_from.json").write_text(json.dumps({"checkpoint": str(init_from), "timesteps": start}) + "\n")
         resumed = (first, start)
+    run_dir.mkdir(parents=True, exist_ok=True)
     zoo = copy.deepcopy(config.zoo)
     zoo["n_timesteps"] = total
     resolved = TrainConfig(config.env_id, zoo, config.pico, config.source)
