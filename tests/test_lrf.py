@@ -10,6 +10,7 @@ from helpers import square_segments
 
 from pico_gym.sensors.lrf import Lrf, LrfConfig, lrf_ranges
 from pico_gym.types import Pose
+from pico_gym.world.segment_grid import GRID_MIN_SEGMENTS
 
 
 def brute_force(pose: Pose, segments: np.ndarray, angles: np.ndarray, max_range: float) -> np.ndarray:
@@ -105,6 +106,32 @@ def test_noise_is_uniform_within_bounds_and_seeded() -> None:
     assert err.std() == pytest.approx(0.02 / math.sqrt(12), rel=0.05)  # U(-0.01, 0.01)
     again = lrf.scan(pose, square_segments(2.0), np.random.default_rng(3))
     assert np.array_equal(again, scans[3])
+
+
+def test_lrf_ranges_on_a_grid_scene_follows_arrays_changed_in_place() -> None:
+    """On scenes large enough for the grid, the grid and beams of the last call are reused in one
+    compiled call only while the segments, flags and beams are equal to theirs by content."""
+    rng = np.random.default_rng(5)
+    n = GRID_MIN_SEGMENTS + 40
+    room = np.concatenate([square_segments(4.0), rng.uniform(-3.5, 3.5, (n, 4))])
+    pose = Pose(0.2, -0.1, 0.4)
+    angles = LrfConfig().beam_angles.copy()
+    assert lrf_ranges(pose, room, angles) == pytest.approx(brute_force(pose, room, angles, 10.0), abs=1e-9)
+    assert lrf_ranges(pose, room, angles) == pytest.approx(brute_force(pose, room, angles, 10.0), abs=1e-9)
+    room[7] = [-3.0, 0.5, 3.0, 0.6]  # in place: the same array object, one segment moved
+    assert lrf_ranges(pose, room, angles) == pytest.approx(brute_force(pose, room, angles, 10.0), abs=1e-9)
+    angles[:] = np.linspace(-0.5, 0.5, angles.size)  # the beams, in place
+    assert lrf_ranges(pose, room, angles) == pytest.approx(brute_force(pose, room, angles, 10.0), abs=1e-9)
+    # One-sided flags, then the same flags changed in place: a back face is skipped only while flagged.
+    flags = np.zeros(len(room), dtype=bool)
+    inside = lrf_ranges(pose, room, angles, one_sided=flags)
+    flags[:4] = True  # the outer square, directed counter-clockwise: the sensor is on its free side
+    assert np.array_equal(lrf_ranges(pose, room, angles, one_sided=flags), inside)
+    room[:4] = room[:4, [2, 3, 0, 1]]  # reversed: now the sensor is behind them, and they are skipped
+    beyond = lrf_ranges(pose, room, angles, one_sided=flags)
+    assert np.array_equal(beyond, lrf_ranges(pose, room[4:], angles))
+    flags[:] = False
+    assert np.array_equal(lrf_ranges(pose, room, angles, one_sided=flags), inside)
 
 
 def test_config_validation() -> None:

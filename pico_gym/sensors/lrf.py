@@ -28,7 +28,7 @@ import numpy as np
 from pico_gym.jit import njit
 from pico_gym.types import FloatArray, Pose, Segments
 from pico_gym.validate import number
-from pico_gym.world.segment_grid import GRID_MIN_SEGMENTS, SegmentGrid
+from pico_gym.world.segment_grid import GRID_MIN_SEGMENTS, SegmentGrid, _cast_grid
 
 # PICO's laser (emc_simulator, PICO era): 1000 beams, -2..2 rad, 0.01..10 m, U(-0.01, 0.01) noise.
 PICO_N_BEAMS = 1000
@@ -405,6 +405,42 @@ def _cast_known_beams(
 _GRIDS = _Recent(4)  # (segments, one-sided flags) -> SegmentGrid
 
 
+@njit
+def _same_segments(a: Segments, b: Segments) -> bool:
+    """Equal C-contiguous (N, 4) arrays, compared flat (the loop vectorises)."""
+    return a.shape[0] == b.shape[0] and _equal(a.reshape(-1), b.reshape(-1))
+
+
+@njit
+def _cast_known_grid(
+    x: float,
+    y: float,
+    theta: float,
+    segments: Segments,
+    one_sided: np.ndarray,
+    beam_angles: FloatArray,
+    known_segments: Segments,
+    known_one_sided: np.ndarray,
+    known_angles: FloatArray,
+    beam_cos: FloatArray,
+    beam_sin: FloatArray,
+    max_range: float,
+    out: FloatArray,
+    grid: tuple,  # SegmentGrid.kernel_args
+) -> bool:
+    """`lrf_ranges`' grid cast in one call when the segments, flags and beams equal those the
+    newest grid and beams were made from; False, without casting, when anything differs."""
+    if not (
+        _equal(beam_angles, known_angles)
+        and _equal(one_sided, known_one_sided)
+        and _same_segments(segments, known_segments)
+    ):
+        return False
+    data, flags, starts, x0, y0, h, nx, ny = grid
+    _cast_grid(x, y, theta, data, flags, starts, x0, y0, h, nx, ny, beam_cos, beam_sin, max_range, out)
+    return True
+
+
 def _beams(beam_angles: FloatArray) -> tuple[FloatArray, FloatArray]:
     def make() -> tuple[FloatArray, FloatArray]:
         if np.any(np.diff(beam_angles) < 0.0):
@@ -439,7 +475,8 @@ def lrf_ranges(
         ValueError: when the beam angles are not in ascending order.
 
     The beams' directions and, for `GRID_MIN_SEGMENTS` segments or more, the grid are kept for the
-    next calls with equal arrays, so a loop over poses costs what the env's own scans cost.
+    next calls with equal arrays (equal by content, checked every call: an array may have changed in
+    place), so a loop over poses costs the env's own scan plus that check.
 
     >>> square = np.array([[-1, -1, 1, -1], [1, -1, 1, 1], [1, 1, -1, 1], [-1, 1, -1, -1]], float)
     >>> lrf_ranges(Pose(0.0, 0.0, 0.0), square, np.array([0.0, math.pi / 4])).round(6).tolist()
@@ -470,6 +507,14 @@ def lrf_ranges(
                 _cast(x, y, th, segments, beam_angles, cos, sin, float(max_range), out, True, flags)
                 _no_hit_to_inf(out, float(max_range))
             return out
+        if _GRIDS.entries and _BEAMS.entries:  # a loop over poses of one scene: one compiled call
+            (known_segments, known_flags), grid = _GRIDS.entries[0]
+            (known,), (cos, sin) = _BEAMS.entries[0]
+            if _cast_known_grid(
+                x, y, th, segments, flags, beam_angles, known_segments, known_flags, known, cos, sin,
+                float(max_range), out, grid.kernel_args,
+            ):  # fmt: skip
+                return out
         segments = _GRIDS.get((segments, flags), lambda: SegmentGrid(segments, flags))
     cos, sin = _beams(beam_angles)
     segments.cast(x, y, th, cos, sin, float(max_range), out)

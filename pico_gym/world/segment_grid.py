@@ -248,6 +248,9 @@ class SegmentGrid:
         self._data = _pack(segs, items)
         # Each entry's back-face flag, or None when no segment has one (the cast then skips the test).
         self._one_sided = self.one_sided[items] if self.one_sided.any() else None
+        # The grid as `_cast_grid`'s arguments `data` .. `ny`, for a compiled caller that fuses the
+        # cast into a call of its own (`pico_gym.sensors.lrf.lrf_ranges`).
+        self.kernel_args = (self._data, self._one_sided, self.starts, *self.origin, cell_m, *self.shape)
 
     def __len__(self) -> int:
         return len(self.segments)
