@@ -36,6 +36,10 @@ class MlpActor:
         action_low, action_high: the policy's action space bounds (actions are clipped to them).
         obs_mean, obs_std, obs_clip: VecNormalize's observation transform, if any:
             clip((x - mean) / std, -clip, clip).
+        mirror_index, mirror_sign, mirror_action_sign: a mirror-symmetric actor
+            (`pico_gym.train.mirror`): the mean is the average of the network's mean for x and
+            the reflection (times `mirror_action_sign`) of its mean for the reflected x,
+            x[mirror_index] * mirror_sign (`pico_gym.wrappers.mirror_maps`); None: plain.
     """
 
     weights: tuple[np.ndarray, ...]
@@ -47,12 +51,27 @@ class MlpActor:
     obs_mean: np.ndarray | None = None
     obs_std: np.ndarray | None = None
     obs_clip: float = np.inf
+    mirror_index: np.ndarray | None = None
+    mirror_sign: np.ndarray | None = None
+    mirror_action_sign: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         if self.activation not in _ACTIVATIONS:
             raise ValueError(f"activation must be one of {sorted(_ACTIVATIONS)}, got {self.activation!r}")
         if not self.weights or len(self.weights) != len(self.biases):
             raise ValueError("an MLP needs as many bias vectors as weight matrices, and at least one layer")
+        mirror = (self.mirror_index, self.mirror_sign, self.mirror_action_sign)
+        if any(m is not None for m in mirror):
+            n, n_act = self.obs_size, int(self.weights[-1].shape[0])
+            if any(m is None for m in mirror):
+                raise ValueError("a mirrored actor needs mirror_index, mirror_sign and mirror_action_sign")
+            index = np.asarray(self.mirror_index)
+            if index.shape != (n,) or np.asarray(self.mirror_sign).shape != (n,):
+                raise ValueError(f"mirror_index and mirror_sign must have the observation's length {n}")
+            if not np.array_equal(np.sort(index), np.arange(n)):
+                raise ValueError("mirror_index must be a permutation of the observation's indices")
+            if np.asarray(self.mirror_action_sign).shape != (n_act,):
+                raise ValueError(f"mirror_action_sign must have the action's length {n_act}")
 
     @property
     def obs_size(self) -> int:
@@ -64,6 +83,12 @@ class MlpActor:
         h = np.asarray(x, dtype=np.float32).reshape(-1)
         if h.shape[0] != self.obs_size:
             raise ValueError(f"the actor takes observations of length {self.obs_size}, got {h.shape[0]}")
+        if self.mirror_index is None:
+            return self._network(h)
+        reflected = self._network(h[self.mirror_index] * self.mirror_sign) * self.mirror_action_sign
+        return np.float32(0.5) * (self._network(h) + reflected)
+
+    def _network(self, h: np.ndarray) -> np.ndarray:
         if self.obs_mean is not None:  # in float64, as VecNormalize does
             h = np.clip((h - self.obs_mean) / self.obs_std, -self.obs_clip, self.obs_clip).astype(np.float32)
         act = _ACTIVATIONS[self.activation]
@@ -98,6 +123,9 @@ class MlpActor:
             arrays[f"w{i}"], arrays[f"b{i}"] = w, b
         if self.obs_mean is not None:
             arrays["obs_mean"], arrays["obs_std"] = self.obs_mean, self.obs_std
+        if self.mirror_index is not None:
+            arrays["mirror_index"], arrays["mirror_sign"] = self.mirror_index, self.mirror_sign
+            arrays["mirror_action_sign"] = self.mirror_action_sign
         path.parent.mkdir(parents=True, exist_ok=True)
         tmp = path.with_name(path.name + ".tmp")
         with tmp.open("wb") as f:
@@ -121,6 +149,7 @@ class MlpActor:
                 weights = tuple(np.asarray(data[f"w{i}"], np.float32) for i in range(n))
                 biases = tuple(np.asarray(data[f"b{i}"], np.float32) for i in range(n))
                 has_norm = "obs_mean" in data.files
+                mirrored = "mirror_index" in data.files
                 return cls(
                     weights=weights,
                     biases=biases,
@@ -131,6 +160,9 @@ class MlpActor:
                     obs_mean=np.asarray(data["obs_mean"], np.float64) if has_norm else None,
                     obs_std=np.asarray(data["obs_std"], np.float64) if has_norm else None,
                     obs_clip=float(data["obs_clip"]),
+                    mirror_index=np.asarray(data["mirror_index"], np.int64) if mirrored else None,
+                    mirror_sign=np.asarray(data["mirror_sign"], np.float32) if mirrored else None,
+                    mirror_action_sign=np.asarray(data["mirror_action_sign"], np.float32) if mirrored else None,
                 )
         except FileNotFoundError:
             raise
@@ -186,4 +218,19 @@ def export_actor(model: Any, norm: dict[str, Any] | None = None) -> MlpActor:
         obs_mean=mean,
         obs_std=std,
         obs_clip=clip,
+        **_mirror_of(policy),
     )
+
+
+def _mirror_of(policy: Any) -> dict[str, Any]:
+    """A mirror-symmetric policy's reflection (`pico_gym.train.mirror.MirrorPolicy`), as
+    `MlpActor` fields; none for a plain one."""
+    index = getattr(policy, "mirror_index", None)
+    if index is None:
+        return {}
+    n_act = int(policy.action_net.out_features)
+    return {
+        "mirror_index": np.asarray(index, np.int64),
+        "mirror_sign": np.asarray(policy.mirror_sign, np.float32),
+        "mirror_action_sign": np.asarray(policy.mirror_action_sign, np.float32)[:n_act],
+    }

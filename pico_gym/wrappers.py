@@ -473,6 +473,39 @@ class LearningConfig:
         return asdict(self)
 
 
+def mirror_maps(config: LearningConfig) -> tuple[np.ndarray, np.ndarray]:
+    """The left-right reflection of `LearningEncoder`'s input: (index, sign) with
+    reflected = input[index] * sign.
+
+    The LRF sectors, range memory and trail bins run from the robot's right to its left (or round
+    from behind), so each block is reversed; the odometry velocity's vy and w change sign. An
+    involution (index[index] is the identity). The point goal has no reflection here: refused.
+    The blocks' bins are symmetric to within a beam (1000 beams in 64 sectors), so a reflected world
+    encodes to the reflected input to within that, not to the bit.
+    """
+    if config.point_goal:
+        raise ValueError("mirror_maps: the point goal's encoding has no reflection (point_goal=True)")
+    index: list[int] = []
+    sign: list[float] = []
+    blocks = [config.n_sectors] * (2 if config.max_pool else 1) + [config.memory_sectors, config.trail_sectors]
+    at = 0
+    for n in blocks:
+        index += range(at + n - 1, at - 1, -1)
+        sign += [1.0] * n
+        at += n
+    if config.odometry == "velocity":
+        index += [at, at + 1, at + 2]
+        sign += [1.0, -1.0, -1.0]
+        at += 3
+    frame = np.array(index, np.int64)
+    k = config.frame_stack
+    return np.concatenate([frame + i * at for i in range(k)]), np.tile(np.array(sign, np.float32), k)
+
+
+# The reflection of an action (vx, vy, w[, announce]): the robot's left <-> right.
+MIRROR_ACTION_SIGN = np.array([1.0, -1.0, -1.0, 1.0], np.float32)
+
+
 class LearningEncoder:
     """Raw pico-gym observations -> the flat policy input of `PicoLearningWrapper` (stateful:
     call `reset` with an episode's first observation, then `encode` with each next one).

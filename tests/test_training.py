@@ -560,3 +560,63 @@ def test_the_trail_point_goal_policy_acts_with_its_trail(tmp_path):
     assert not make_agent("ppo-pointgoal", env, path=target.policy, shield=False).shield
     with pytest.raises(ValueError, match="shield"):
         make_agent("ppo-pointgoal", env, path=target.policy, shield="yes")
+
+
+MIRRORED = (
+    TINY.replace("policy: 'MlpPolicy'", "policy: 'MirrorMlpPolicy'")
+    .replace("  normalize: true\n", "")
+    .replace(
+        "        frame_stack: 2\n", "        frame_stack: 2\n        memory_sectors: 8\n        trail_sectors: 4\n"
+    )
+    .replace("  eval_episodes: 2\n", "  eval_episodes: 1\n  bc_episodes: 2\n  bc_epochs: 2\n")
+)
+
+
+def test_a_mirrored_policy_trains_exports_and_plays_mirror_symmetric(tmp_path):
+    """MirrorMlpPolicy: the SB3 policy's mean for a reflected input is the reflected mean, the
+    exported numpy actor computes the same (and keeps the reflection through its file), and
+    behaviour cloning saw the reflected demonstrations too."""
+    import torch
+
+    from pico_gym.agents.mlp import MlpActor, export_actor
+    from pico_gym.wrappers import MIRROR_ACTION_SIGN, mirror_maps
+
+    path = tmp_path / "mirror.yaml"
+    path.write_text(MIRRORED)
+    config = load_config(path)
+    model_path = train(config, tmp_path / "run", timesteps=512, progress_bar=False)
+    report = json.loads((tmp_path / "run" / "behaviour_cloning.json").read_text())
+    steps = report["samples"]
+    assert steps > 50
+    from stable_baselines3 import PPO
+
+    model = PPO.load(model_path, device="cpu")
+    index, sign = mirror_maps(config.learning)
+    x = np.random.default_rng(0).uniform(0.0, 1.0, (5, len(index))).astype(np.float32)
+    with torch.no_grad():
+        mean = model.policy.mean_actions(torch.as_tensor(x)).numpy()
+        reflected = model.policy.mean_actions(torch.as_tensor(x[:, index] * sign)).numpy()
+        plain = model.policy.action_net(
+            model.policy.mlp_extractor.forward_actor(model.policy.extract_features(torch.as_tensor(x)))
+        ).numpy()
+    assert reflected == pytest.approx(mean * MIRROR_ACTION_SIGN[:3], abs=1e-6)
+    assert not np.allclose(plain, mean, atol=1e-4)  # the symmetrisation is on: the raw net is not symmetric
+    actor = export_actor(model)
+    assert np.allclose([actor.mean_action(row) for row in x], mean, atol=1e-5)
+    again = MlpActor.load(actor.save(tmp_path / "actor.npz"))
+    assert np.array_equal(again.mirror_index, actor.mirror_index)
+    assert np.allclose([again.mean_action(row) for row in x], mean, atol=1e-5)
+    agent = make_agent("ppo", gym.make("PicoEscape-v0", n_beams=200), path=str(model_path.with_suffix(".npz")))
+    assert agent.actor.mirror_index is not None
+
+
+def test_mirrored_policy_configs_it_cannot_reflect_are_refused(tmp_path):
+    path = tmp_path / "m.yaml"
+    path.write_text(MIRRORED.replace("  n_steps: 256\n", "  normalize: true\n  n_steps: 256\n"))
+    with pytest.raises(ConfigError, match="normalize"):
+        load_config(path)
+    path.write_text(
+        MIRRORED.replace("        trail_sectors: 4\n", "        trail_sectors: 4\n        point_goal: true\n")
+    )
+    with pytest.raises(ConfigError, match="point goal"):
+        load_config(path)

@@ -345,3 +345,41 @@ def test_the_batched_encoder_encodes_what_the_encoder_does(settings):
     assert resets >= 3
     with pytest.raises(ValueError, match="point goal"):
         BatchedLearningEncoder(spec.lrf, spec.robot, spec.dt_s, LearningConfig(point_goal=True), 2)
+
+
+def test_mirror_maps_reflect_the_learning_input() -> None:
+    """The reflection is an involution that reverses each block and flips vy and w; the encoding
+    of a reflected world (the scan reversed, odometry y and heading negated) is the reflected
+    encoding to within the sectors' one-beam asymmetry."""
+    from pico_gym.agents.base import RobotSpec
+    from pico_gym.wrappers import LearningConfig, LearningEncoder, mirror_maps
+
+    config = LearningConfig(n_sectors=64, frame_stack=2, memory_sectors=36, range_scale="log", trail_sectors=16)
+    index, sign = mirror_maps(config)
+    assert np.array_equal(index[index], np.arange(len(index)))
+    frame = 64 + 36 + 16 + 3
+    assert index[:64].tolist() == list(range(63, -1, -1)) and index[frame - 3 : frame].tolist() == [
+        frame - 3,
+        frame - 2,
+        frame - 1,
+    ]
+    assert sign[frame - 3 : frame].tolist() == [1.0, -1.0, -1.0] and len(index) == 2 * frame
+    with pytest.raises(ValueError, match="point goal"):
+        mirror_maps(LearningConfig(point_goal=True))
+
+    env = gym.make("PicoEscape-v0")
+    obs, _ = env.reset(seed=3)
+    spec = RobotSpec.of(env)
+    plain, mirrored = (LearningEncoder(spec.lrf, spec.robot, spec.dt_s, config) for _ in range(2))
+
+    def reflect(o):  # noqa: ANN001, ANN202
+        odom = np.array(o["odom"])
+        return {**o, "lrf": o["lrf"][::-1].copy(), "odom": np.array([odom[0], -odom[1], -odom[2]], odom.dtype)}
+
+    errors = [np.abs(mirrored.reset(reflect(obs)) - plain.reset(obs)[index] * sign)]
+    rng = np.random.default_rng(0)
+    for _ in range(200):
+        obs, *_ = env.step(rng.uniform(-0.5, 0.5, 3))
+        errors.append(np.abs(mirrored.encode(reflect(obs)) - plain.encode(obs)[index] * sign))
+    errors = np.concatenate(errors)
+    assert np.median(errors) < 0.02 and np.mean(errors < 0.05) > 0.95

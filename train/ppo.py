@@ -72,6 +72,8 @@ POLICY_AGENTS = ("ppo", "hybrid")
 # the same episodes, bit for bit; its env_wrapper must be PicoLearningWrapper alone, no variants).
 VEC_ENVS = ("dummy", "subproc", "vector")
 # Keys of the env block that are not PPO constructor arguments (rl-zoo3's meaning).
+# `policy: MirrorMlpPolicy`: the MLP policy with a mirror-symmetric actor (`pico_gym.train.mirror`).
+MIRROR_POLICY = "MirrorMlpPolicy"
 ZOO_KEYS = {"n_envs", "n_timesteps", "policy", "env_wrapper", "policy_kwargs", "normalize", "frame_stack"}
 
 
@@ -157,6 +159,13 @@ def load_config(path: str | Path, env_id: str | None = None) -> TrainConfig:
     if not isinstance(variants, list) or not all(isinstance(v, dict) for v in variants):
         raise ConfigError(f"{path}: {PICO_KEY}.train_env_variants must be a list of env kwargs dicts, got {variants!r}")
     config = TrainConfig(env_id, zoo, pico, str(path))
+    if zoo["policy"] == MIRROR_POLICY:
+        if zoo.get("normalize"):
+            raise ConfigError(
+                f"{path}: {env_id}.policy {MIRROR_POLICY} reflects the raw input: it cannot take normalize"
+            )
+        if pico["agent"] == "hybrid" or config.learning.point_goal:
+            raise ConfigError(f"{path}: {env_id}.policy {MIRROR_POLICY} has no reflection of the point goal")
     if pico["vec_env"] == "vector":
         check_vector(config)
     config.learning  # noqa: B018  (validates the wrapper entry now, not after minutes of setup)
@@ -521,6 +530,10 @@ def behaviour_clone(model: Any, config: TrainConfig, episodes: int, epochs: int)
 
     started = time.perf_counter()
     xs, ys, report = collect_demonstrations(config, episodes)
+    if config.zoo["policy"] == MIRROR_POLICY:  # a mirrored policy: the teacher's reflections too
+        from pico_gym.train.mirror import mirrored_demonstrations
+
+        xs, ys = mirrored_demonstrations(xs, ys, config.learning)
     policy = model.policy
     params = list(policy.mlp_extractor.policy_net.parameters()) + list(policy.action_net.parameters())
     params += list(policy.features_extractor.parameters())
@@ -743,10 +756,15 @@ def train(
         model = PPO.load(resumed[0], env=vec_env, device="cpu", **hyper)
         print(f"resuming {run_dir} from {resumed[0].name} ({resumed[1]:,} of {total:,} steps)")
     else:
+        policy, policy_kwargs = zoo["policy"], _policy_kwargs(zoo.get("policy_kwargs"), config.source)
+        if policy == MIRROR_POLICY:
+            from pico_gym.train.mirror import MirrorPolicy, mirror_policy_kwargs
+
+            policy, policy_kwargs = MirrorPolicy, {**policy_kwargs, **mirror_policy_kwargs(config.learning)}
         model = PPO(
-            zoo["policy"],
+            policy,
             vec_env,
-            policy_kwargs=_policy_kwargs(zoo.get("policy_kwargs"), config.source),
+            policy_kwargs=policy_kwargs,
             seed=seed,
             device="cpu",
             verbose=verbose,

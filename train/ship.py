@@ -29,6 +29,7 @@ from pico_gym.agents.evaluation import Summary, run_episodes, summarize
 from pico_gym.agents.hybrid import SHIPPED_HYBRID_POLICY
 from pico_gym.agents.mlp import export_actor
 from pico_gym.agents.ppo import SHIPPED_POINTGOAL_POLICY, SHIPPED_POLICY, load_policy, policy_metadata_path
+from pico_gym.train.ppo import MIRROR_POLICY
 
 CHECK_EPISODES = 20
 REALISM = {"noise_m": 0.02, "slip_std": 0.05}
@@ -249,6 +250,14 @@ def ship(
     return SHIPPED_MODEL
 
 
+def _policy_kind(config: dict[str, Any]) -> str:
+    """The card's words for the run's policy class."""
+    policies = [block.get("policy") for key, block in config.items() if isinstance(block, dict) and "policy" in block]
+    if MIRROR_POLICY in policies:
+        return "MLP policy with a mirror-symmetric actor (`pico_gym.train.mirror`: it cannot prefer a hand)"
+    return "MLP policy"
+
+
 def _write_card(meta: dict[str, Any], config: dict[str, Any], rows: list[str], target: Target) -> None:
     run = config.pop("run", {})
     minutes = (meta.get("wall_clock_s") or 0) / 60
@@ -275,7 +284,7 @@ def _write_card(meta: dict[str, Any], config: dict[str, Any], rows: list[str], t
         "Written by `python -m pico_gym.train.ship` from measured runs; do not edit the numbers by hand.",
         "",
         "## What it is",
-        f"- PPO (stable-baselines3 {run.get('versions', {}).get('stable-baselines3', '?')}), MLP policy, "
+        f"- PPO (stable-baselines3 {run.get('versions', {}).get('stable-baselines3', '?')}), {_policy_kind(config)}, "
         f"trained on {target.trained_on} (seeds >= 1,000,000), env kwargs {meta.get('env_kwargs') or {}}.",
         *([f"- {target.privileged}"] if target.privileged else []),
         *(
