@@ -588,6 +588,14 @@ def test_a_mirrored_policy_trains_exports_and_plays_mirror_symmetric(tmp_path):
     report = json.loads((tmp_path / "run" / "behaviour_cloning.json").read_text())
     steps = report["samples"]
     assert steps > 50
+    from pico_gym.train.mirror import mirrored_demonstrations
+
+    xs = np.random.default_rng(1).uniform(0.0, 1.0, (4, 2 * (16 + 8 + 4 + 3))).astype(np.float32)
+    ys = np.random.default_rng(2).uniform(-1.0, 1.0, (4, 3)).astype(np.float32)
+    both_x, both_y = mirrored_demonstrations(xs, ys, config.learning)
+    index, sign = mirror_maps(config.learning)
+    assert np.array_equal(both_x[:4], xs) and np.array_equal(both_x[4:], xs[:, index] * sign)
+    assert np.array_equal(both_y[4:], ys * np.array([1.0, -1.0, -1.0], np.float32))
     from stable_baselines3 import PPO
 
     model = PPO.load(model_path, device="cpu")

@@ -22,8 +22,6 @@ from stable_baselines3.common.policies import ActorCriticPolicy
 
 from pico_gym.wrappers import MIRROR_ACTION_SIGN, LearningConfig, mirror_maps
 
-POLICY_NAME = "MirrorMlpPolicy"
-
 
 class MirrorPolicy(ActorCriticPolicy):
     """`ActorCriticPolicy` (MLP) with a mirror-symmetric actor (module docstring).

@@ -71,9 +71,9 @@ POLICY_AGENTS = ("ppo", "hybrid")
 # or pico-gym's vector env with the learning encoder (`pico_gym.train.sb3_vec.PicoTrainingVecEnv`:
 # the same episodes, bit for bit; its env_wrapper must be PicoLearningWrapper alone, no variants).
 VEC_ENVS = ("dummy", "subproc", "vector")
-# Keys of the env block that are not PPO constructor arguments (rl-zoo3's meaning).
 # `policy: MirrorMlpPolicy`: the MLP policy with a mirror-symmetric actor (`pico_gym.train.mirror`).
 MIRROR_POLICY = "MirrorMlpPolicy"
+# Keys of the env block that are not PPO constructor arguments (rl-zoo3's meaning).
 ZOO_KEYS = {"n_envs", "n_timesteps", "policy", "env_wrapper", "policy_kwargs", "normalize", "frame_stack"}
 
 

@@ -252,8 +252,7 @@ def ship(
 
 def _policy_kind(config: dict[str, Any]) -> str:
     """The card's words for the run's policy class."""
-    policies = [block.get("policy") for key, block in config.items() if isinstance(block, dict) and "policy" in block]
-    if MIRROR_POLICY in policies:
+    if any(isinstance(block, dict) and block.get("policy") == MIRROR_POLICY for block in config.values()):
         return "MLP policy with a mirror-symmetric actor (`pico_gym.train.mirror`: it cannot prefer a hand)"
     return "MLP policy"
 
