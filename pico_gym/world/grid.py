@@ -149,17 +149,21 @@ def _dijkstra_run(
 ) -> tuple[FloatArray, bool]:
     """`_dijkstra` with a heap of `room` entries; False (and a partial result) when that is too few.
 
-    The heap holds (distance, r * cols + c) pairs in two arrays, ordered as those pairs. The pairs
-    are unique (a cell is pushed again only with a smaller distance), so the pop order, and with it
-    every settled distance, is that of any correct heap over them (Python's heapq included)."""
+    The heap holds (distance, r * cols + c) pairs in two arrays, ordered as those pairs, at most
+    one per cell (a cell reached again with a smaller distance has its entry lowered in place:
+    `where` keeps each cell's place in the heap). The pairs are unique, so the settle order, and
+    with it every settled distance, is that of any correct search over them (Python's heapq with
+    its stale entries included)."""
     rows, cols = cost.shape
     dist = np.full((rows, cols), np.inf)
     free = np.isfinite(cost)
+    open_ = free & allowed  # the cells the search may enter
+    where = np.full(rows * cols, -1, dtype=np.int64)  # each cell's heap index, -1 when not in it
     wr0, wr1, wc0, wc1 = max(window[0], 0), min(window[1], rows - 1), max(window[2], 0), min(window[3], cols - 1)
     waiting = 0  # free cells of the window not settled yet
     for r in range(wr0, wr1 + 1):
         for c in range(wc0, wc1 + 1):
-            if free[r, c] and allowed[r, c]:
+            if open_[r, c]:
                 waiting += 1
     stop_early = waiting > 0
     n_moves = _MOVES.shape[0]
@@ -173,17 +177,21 @@ def _dijkstra_run(
     size = 0
     for i in range(seeds_r.shape[0]):
         r, c = seeds_r[i], seeds_c[i]
-        if free[r, c] and allowed[r, c] and seeds_v[i] < dist[r, c]:
-            if size == room:
-                return dist, False
+        if open_[r, c] and seeds_v[i] < dist[r, c]:
+            k = r * cols + c
+            if where[k] < 0:
+                if size == room:
+                    return dist, False
+                size += 1
+                _sift_up(keys, cells, where, size - 1, seeds_v[i], k)
+            else:
+                _sift_up(keys, cells, where, where[k], seeds_v[i], k)
             dist[r, c] = seeds_v[i]
-            size = _heap_push(keys, cells, size, seeds_v[i], r * cols + c)
     while size > 0:
         d, k = keys[0], cells[0]
-        size = _heap_pop(keys, cells, size)
+        where[k] = -1
+        size = _heap_pop(keys, cells, where, size)
         r, c = k // cols, k % cols
-        if d > dist[r, c]:
-            continue
         if stop_early and wr0 <= r <= wr1 and wc0 <= c <= wc1:
             waiting -= 1
             if waiting == 0:
@@ -195,7 +203,7 @@ def _dijkstra_run(
             rr, cc = r + dr, c + dc
             if rr < 0 or rr >= rows or cc < 0 or cc >= cols:
                 continue
-            if not (free[rr, cc] and allowed[rr, cc]):
+            if not open_[rr, cc]:
                 continue
             if m >= 8 and not (knight_here and knight_ok[rr, cc]):
                 continue
@@ -203,22 +211,20 @@ def _dijkstra_run(
                 continue  # no diagonal squeeze between two blocked cells
             nd = d + half[m] * (cost_here + cost[rr, cc])
             if nd < dist[rr, cc]:
-                if size == room:
-                    return dist, False
+                kk = rr * cols + cc
+                hole = where[kk]
+                if hole < 0:
+                    if size == room:
+                        return dist, False
+                    hole = size
+                    size += 1
+                _sift_up(keys, cells, where, hole, nd, kk)
                 dist[rr, cc] = nd
-                size = _heap_push(keys, cells, size, nd, rr * cols + cc)
     return dist, True
 
 
 @njit
-def _heap_push(keys: FloatArray, cells: np.ndarray, size: int, key: float, cell: int) -> int:
-    """Push (key, cell) onto the heap keys[:size], cells[:size] (with room for it); returns the new size."""
-    _sift_up(keys, cells, size, key, cell)
-    return size + 1
-
-
-@njit
-def _sift_up(keys: FloatArray, cells: np.ndarray, i: int, key: float, cell: int) -> None:
+def _sift_up(keys: FloatArray, cells: np.ndarray, where: np.ndarray, i: int, key: float, cell: int) -> None:
     """Put (key, cell) at the hole i, moving it up past the parents it orders before."""
     while i > 0:
         parent = (i - 1) >> 1
@@ -227,17 +233,21 @@ def _sift_up(keys: FloatArray, cells: np.ndarray, i: int, key: float, cell: int)
             break
         keys[i] = pk
         cells[i] = cells[parent]
+        where[cells[i]] = i
         i = parent
     keys[i] = key
     cells[i] = cell
+    where[cell] = i
 
 
 @njit
-def _heap_pop(keys: FloatArray, cells: np.ndarray, size: int) -> int:
+def _heap_pop(keys: FloatArray, cells: np.ndarray, where: np.ndarray, size: int) -> int:
     """Drop the smallest pair (index 0); returns the new size. The hole at the top moves down
     along the smaller children to a leaf, and the last entry moves up from there (Floyd's order:
     about half the comparisons of sifting it down from the top)."""
     size -= 1
+    if size == 0:
+        return 0
     key, cell = keys[size], cells[size]
     i = 0
     child = 1
@@ -247,9 +257,10 @@ def _heap_pop(keys: FloatArray, cells: np.ndarray, size: int) -> int:
             child = right
         keys[i] = keys[child]
         cells[i] = cells[child]
+        where[cells[i]] = i
         i = child
         child = 2 * i + 1
-    _sift_up(keys, cells, i, key, cell)
+    _sift_up(keys, cells, where, i, key, cell)
     return size
 
 
