@@ -192,10 +192,9 @@ class PpoAgent(Agent):
                 raise ValueError(f"{path or SHIPPED_POLICY}: bad policy metadata (shield must be true or false)")
         self.shield = shield
         if shield:
-            from pico_gym.agents.classic.potential_field import motion_for
+            from pico_gym.agents.shield import ScanShield
 
-            self._motion = motion_for(spec)
-            self._beam_cos, self._beam_sin = np.cos(spec.beam_angles), np.sin(spec.beam_angles)
+            self._shield = ScanShield(spec)
 
     def _with_goal(self, obs: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         if self._goal is None or "point_goal" in obs:
@@ -222,14 +221,5 @@ class PpoAgent(Agent):
         return np.concatenate([twist, unit[3:]]).astype(np.float32)
 
     def _shielded(self, obs: dict[str, np.ndarray], twist: np.ndarray) -> np.ndarray:
-        """The twist through the safety filter, on the scan's end points within 1.2 m (the valid
-        beams' end points, as `scan_points` gives them, from trigonometry computed once)."""
-        from pico_gym.agents.classic.potential_field import safe_turn, safety_filter
-
-        r = np.asarray(obs["lrf"], dtype=np.float64)
-        ok = (r > 0.05) & (r < min(self.spec.lrf.range_max_m - 1e-6, 1.3))  # (1.3: a superset of < 1.2 m)
-        rk = r[ok]
-        near = np.column_stack([rk * self._beam_cos[ok], rk * self._beam_sin[ok]])
-        near = near[np.hypot(near[:, 0], near[:, 1]) < 1.2]
-        w = safe_turn(near, float(twist[2]), self._motion)
-        return np.array(safety_filter(near, (float(twist[0]), float(twist[1]), w), self._motion))
+        """The twist through the safety filter on the current scan (`ScanShield`)."""
+        return self._shield(obs["lrf"], twist)

@@ -17,11 +17,39 @@ from collections.abc import Callable
 
 import numpy as np
 
-from pico_gym.agents.classic.potential_field import MotionConfig
+from pico_gym.agents.base import RobotSpec
+from pico_gym.agents.classic.potential_field import MotionConfig, motion_for, safe_turn, safety_filter
 from pico_gym.types import FloatArray, Pose
 
 # Points farther than this from the robot cannot matter to the filter within its horizon [m].
 REACH_M = 1.2
+
+
+class ScanShield:
+    """A twist through the classic agents' safety filter on the current scan: the turn cut near
+    corners (`safe_turn`), then the command scaled down until the footprint keeps its margin from
+    the scan's end points within `REACH_M` (`safety_filter`). It knows only what the LRF sees now:
+    nothing behind the robot.
+
+    `PpoAgent(shield=True)` plays a policy through it, and `pico_gym.train.shielded.ShieldedActions`
+    puts it in a training env, so that a policy is trained in the loop it is played in.
+    """
+
+    def __init__(self, spec: RobotSpec) -> None:
+        self.motion = motion_for(spec)
+        self._cos, self._sin = np.cos(spec.beam_angles), np.sin(spec.beam_angles)
+        # Valid end points: beyond the range floor, short of a no-hit (1.3 m: a superset of REACH_M).
+        self._far = min(spec.lrf.range_max_m - 1e-6, REACH_M + 0.1)
+
+    def __call__(self, ranges: np.ndarray, twist: np.ndarray) -> np.ndarray:
+        """The filtered twist (vx, vy, w) for a scan's ranges (as the env's `obs["lrf"]`)."""
+        r = np.asarray(ranges, dtype=np.float64)
+        ok = (r > 0.05) & (r < self._far)
+        rk = r[ok]
+        near = np.column_stack([rk * self._cos[ok], rk * self._sin[ok]])
+        near = near[np.hypot(near[:, 0], near[:, 1]) < REACH_M]
+        w = safe_turn(near, float(twist[2]), self.motion)
+        return np.array(safety_filter(near, (float(twist[0]), float(twist[1]), w), self.motion))
 
 
 class ScanMemory:

@@ -628,3 +628,68 @@ def test_mirrored_policy_configs_it_cannot_reflect_are_refused(tmp_path):
     )
     with pytest.raises(ConfigError, match="point goal"):
         load_config(path)
+
+
+class _Recorder(gym.Wrapper):
+    """Records the actions the env under it is stepped with."""
+
+    def __init__(self, env):
+        super().__init__(env)
+        self.actions = []
+
+    def step(self, action):
+        self.actions.append(np.array(action))
+        return self.env.step(action)
+
+
+def test_shielded_actions_step_the_env_with_what_the_shielded_agent_plays():
+    """The training env steps the twist `PpoAgent(shield=True)` would play for the same command on
+    the same scan (a command into the wall is cut, one into open space is not), and a fourth
+    component (the announcement) passes unchanged."""
+    from pico_gym.agents.base import RobotSpec
+    from pico_gym.agents.shield import ScanShield
+    from pico_gym.train.shielded import ShieldedActions
+
+    env = gym.make("PicoEscape-v0")
+    recorder = _Recorder(env)
+    shielded = ShieldedActions(recorder)
+    shield = ScanShield(RobotSpec.of(env))
+    obs, _ = shielded.reset(seed=3)
+    rng = np.random.default_rng(0)
+    low, high = env.action_space.low, env.action_space.high
+    cut = 0
+    for _ in range(200):
+        command = np.array([high[0], rng.uniform(low[1], high[1]), rng.uniform(low[2], high[2]) / 4], np.float32)
+        expected = shield(obs["lrf"], command).astype(np.float32)
+        obs, _, terminated, truncated, _ = shielded.step(command)
+        assert np.array_equal(recorder.actions[-1], expected)
+        cut += not np.array_equal(expected, command)
+        if terminated or truncated:
+            obs, _ = shielded.reset()
+    assert 0 < cut < 200  # the filter acted on some commands and let others through
+
+    hospital = gym.make("PicoHospital-v0", arrival="announce")
+    recorder = _Recorder(hospital)
+    shielded = ShieldedActions(recorder)
+    shielded.reset(seed=0)
+    shielded.step(np.array([0.1, 0.0, 0.2, 0.7], np.float32))
+    assert recorder.actions[-1].shape == (4,) and recorder.actions[-1][3] == np.float32(0.7)
+
+
+def test_shielded_actions_after_the_learning_wrapper_are_refused(tmp_path):
+    path = tmp_path / "shielded.yaml"
+    after = "        frame_stack: 2\n    - pico_gym.train.shielded.ShieldedActions\n"
+    path.write_text(TINY.replace("        frame_stack: 2\n", after))
+    config = load_config(path)
+    from pico_gym.train.ppo import make_env
+
+    with pytest.raises(ValueError, match="list it before PicoLearningWrapper"):
+        make_env(config, np.random.default_rng(0))
+
+
+def test_a_config_with_shielded_actions_trains(tmp_path):
+    path = tmp_path / "shielded.yaml"
+    path.write_text(TINY.replace("  env_wrapper:\n", "  env_wrapper:\n    - pico_gym.train.shielded.ShieldedActions\n"))
+    config = load_config(path)
+    model_path = train(config, tmp_path / "run", seed=0, timesteps=1024, progress_bar=False)
+    assert model_path.exists()
