@@ -178,14 +178,9 @@ def _dijkstra_run(
     for i in range(seeds_r.shape[0]):
         r, c = seeds_r[i], seeds_c[i]
         if open_[r, c] and seeds_v[i] < dist[r, c]:
-            k = r * cols + c
-            if where[k] < 0:
-                if size == room:
-                    return dist, False
-                size += 1
-                _sift_up(keys, cells, where, size - 1, seeds_v[i], k)
-            else:
-                _sift_up(keys, cells, where, where[k], seeds_v[i], k)
+            size = _offer(keys, cells, where, size, room, seeds_v[i], r * cols + c)
+            if size < 0:
+                return dist, False
             dist[r, c] = seeds_v[i]
     while size > 0:
         d, k = keys[0], cells[0]
@@ -211,16 +206,25 @@ def _dijkstra_run(
                 continue  # no diagonal squeeze between two blocked cells
             nd = d + half[m] * (cost_here + cost[rr, cc])
             if nd < dist[rr, cc]:
-                kk = rr * cols + cc
-                hole = where[kk]
-                if hole < 0:
-                    if size == room:
-                        return dist, False
-                    hole = size
-                    size += 1
-                _sift_up(keys, cells, where, hole, nd, kk)
+                size = _offer(keys, cells, where, size, room, nd, rr * cols + cc)
+                if size < 0:
+                    return dist, False
                 dist[rr, cc] = nd
     return dist, True
+
+
+@njit
+def _offer(keys: FloatArray, cells: np.ndarray, where: np.ndarray, size: int, room: int, key: float, cell: int) -> int:
+    """Enter (key, cell) into the heap of `size` entries: lower the cell's entry if it has one (key
+    is smaller), else push one. Returns the new size, or -1 when a push finds no room."""
+    hole = where[cell]
+    if hole < 0:
+        if size == room:
+            return -1
+        hole = size
+        size += 1
+    _sift_up(keys, cells, where, hole, key, cell)
+    return size
 
 
 @njit
