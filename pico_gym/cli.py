@@ -262,8 +262,10 @@ def bench_lrf(repeats: int, seed: int, scans: int = 300) -> None:
     """pico-gym's exact LRF against f1tenth_gym's ray marching on the same scenes, in one run.
 
     Per scene: pico-gym's env path (`Lrf.exact` on `Scene.lrf_static`'s choice), the public pure
-    function `lrf_ranges`, and the f1tenth-style scanner (`pico_gym.sensors.raymarch`, 1080 beams on
-    a 0.05 m raster), interleaved round by round; ratios are medians of per-round ratios.
+    function `lrf_ranges` on the segment array (its grid and beams found again by content) and on
+    what the env scans (a prebuilt `SegmentGrid` on large scenes) with `out=`, and the
+    f1tenth-style scanner (`pico_gym.sensors.raymarch`, 1080 beams on a 0.05 m raster), interleaved
+    round by round; ratios are medians of per-round ratios.
     """
     import gymnasium as gym
 
@@ -293,13 +295,17 @@ def bench_lrf(repeats: int, seed: int, scans: int = 300) -> None:
     noise_rng = np.random.default_rng(seed)
     unit = np.empty(lrf.config.n_beams)
     print("LRF scans/s (1000 beams; f1tenth-style: 1080 beams, EDT ray marching on a 0.05 m raster)")
-    print(f"{'scene':<48} {'pico-gym':>9} {'lrf_ranges':>11} {'f1tenth':>9} {'ratio':>7}")
+    print(f"{'':<48} {'':>9} {'lrf_ranges':>11} {'lrf_ranges':>11}")
+    print(f"{'scene':<48} {'pico-gym':>9} {'(arrays)':>11} {'(as env)':>11} {'f1tenth':>9} {'ratio':>7}")
+    buffer = np.empty(lrf.config.n_beams)
+    pure_ratios: list[tuple[float, float]] = []
     for label, segs, flags, pose in scenes:
         seen = SegmentGrid(segs, flags) if len(segs) >= GRID_MIN_SEGMENTS else segs
         marcher = RayMarchScanner(segs)
         angles = lrf.beam_angles
         lrf.exact(pose, seen, None, flags)
         lrf_ranges(pose, segs, angles, one_sided=flags)
+        lrf_ranges(pose, seen, angles, one_sided=flags, out=buffer)
         marcher.scan(*pose)
 
         def ours(seen=seen, pose=pose, flags=flags) -> int:  # noqa: ANN001
@@ -312,23 +318,40 @@ def bench_lrf(repeats: int, seed: int, scans: int = 300) -> None:
                 lrf_ranges(pose, segs, angles, one_sided=flags)
             return scans
 
+        def pure_as_env(seen=seen, pose=pose, flags=flags, angles=angles) -> int:  # noqa: ANN001
+            for _ in range(scans):
+                lrf_ranges(pose, seen, angles, one_sided=flags, out=buffer)
+            return scans
+
         def theirs(marcher=marcher, pose=pose) -> int:  # noqa: ANN001
             for _ in range(scans):
                 marcher.scan(*pose)
             return scans
 
-        a, b, c = _interleaved([ours, pure, theirs], repeats)
+        a, b, b2, c = _interleaved([ours, pure, pure_as_env, theirs], repeats)
         ratio = statistics.median(x / y for x, y in zip(a, c, strict=True))
+        pure_ratios.append(
+            (
+                statistics.median(x / y for x, y in zip(b, a, strict=True)),
+                statistics.median(x / y for x, y in zip(b2, a, strict=True)),
+            )
+        )
         print(
             f"{label:<48} {statistics.median(a):9,.0f} {statistics.median(b):11,.0f} "
-            f"{statistics.median(c):9,.0f} {ratio:6.2f}x"
+            f"{statistics.median(b2):11,.0f} {statistics.median(c):9,.0f} {ratio:6.2f}x"
         )
+    print(
+        "lrf_ranges / the env path, per scene: arrays "
+        + " ".join(f"{r:.2f}x" for r, _ in pure_ratios)
+        + "; as the env scans, out= "
+        + " ".join(f"{r:.2f}x" for _, r in pure_ratios)
+    )
 
     # A moving robot: every scan from another place. (The rows above scan one pose over and over:
     # the same scan each time, whose branches the CPU's predictors can learn, both scanners'.)
     n_poses = 64
     print(f"\nLRF scans/s, the sensor at {n_poses} free poses in turn (>= 0.3 m from every wall, random headings)")
-    print(f"{'scene':<48} {'pico-gym':>9} {'':>11} {'f1tenth':>9} {'ratio':>7}")
+    print(f"{'scene':<48} {'pico-gym':>9} {'':>11} {'':>11} {'f1tenth':>9} {'ratio':>7}")
     for label, segs, flags, _ in scenes[:-1]:  # (the room scenes: poses drawn inside the room)
         seen = SegmentGrid(segs, flags) if len(segs) >= GRID_MIN_SEGMENTS else segs
         marcher = RayMarchScanner(segs)
@@ -351,7 +374,7 @@ def bench_lrf(repeats: int, seed: int, scans: int = 300) -> None:
         theirs_moving()
         a, c = _interleaved([ours_moving, theirs_moving], repeats)
         ratio = statistics.median(x / y for x, y in zip(a, c, strict=True))
-        print(f"{label:<48} {statistics.median(a):9,.0f} {'':>11} {statistics.median(c):9,.0f} {ratio:6.2f}x")
+        print(f"{label:<48} {statistics.median(a):9,.0f} {'':>11} {'':>11} {statistics.median(c):9,.0f} {ratio:6.2f}x")
 
     def draws() -> int:
         for _ in range(scans):

@@ -10,7 +10,7 @@ from helpers import square_segments
 
 from pico_gym.sensors.lrf import Lrf, LrfConfig, lrf_ranges
 from pico_gym.types import Pose
-from pico_gym.world.segment_grid import GRID_MIN_SEGMENTS
+from pico_gym.world.segment_grid import GRID_MIN_SEGMENTS, SegmentGrid
 
 
 def brute_force(pose: Pose, segments: np.ndarray, angles: np.ndarray, max_range: float) -> np.ndarray:
@@ -157,3 +157,25 @@ def test_lrf_ranges_follows_the_beams_it_is_given_not_the_last_ones() -> None:
     assert lrf_ranges(pose, room, angles) == pytest.approx(brute_force(pose, room, angles, 10.0), abs=1e-9)
     with pytest.raises(ValueError, match=r"\(N, 4\)"):
         lrf_ranges(pose, np.zeros(6), angles)
+
+
+def test_lrf_ranges_writes_into_out_and_follows_beams_on_a_prebuilt_grid() -> None:
+    """`out=` receives the same ranges as a fresh array (and is returned); on a prebuilt
+    `SegmentGrid` the kept beams are used only while equal to the beams passed."""
+    rng = np.random.default_rng(11)
+    room = np.concatenate([square_segments(4.0), rng.uniform(-3.5, 3.5, (GRID_MIN_SEGMENTS + 10, 4))])
+    grid = SegmentGrid(room)
+    pose = Pose(-0.4, 0.3, 1.1)
+    angles = LrfConfig().beam_angles.copy()
+    buffer = np.full(angles.size, -1.0)
+    for scene in (room, grid, square_segments(2.0)):
+        fresh = lrf_ranges(pose, scene, angles)
+        assert lrf_ranges(pose, scene, angles, out=buffer) is buffer
+        assert np.array_equal(buffer, fresh)
+    reference = brute_force(pose, room, angles, 10.0)
+    assert lrf_ranges(pose, grid, angles) == pytest.approx(reference, abs=1e-9)
+    angles[:] = np.linspace(-0.5, 0.5, angles.size)  # the beams changed in place
+    assert lrf_ranges(pose, grid, angles) == pytest.approx(brute_force(pose, room, angles, 10.0), abs=1e-9)
+    for bad in (np.empty(angles.size - 1), np.empty(angles.size, np.float32), np.empty((angles.size, 2))[:, 0]):
+        with pytest.raises(ValueError, match="out must be"):
+            lrf_ranges(pose, room, angles, out=bad)

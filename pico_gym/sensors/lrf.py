@@ -441,6 +441,28 @@ def _cast_known_grid(
     return True
 
 
+@njit
+def _cast_grid_known_beams(
+    x: float,
+    y: float,
+    theta: float,
+    beam_angles: FloatArray,
+    known_angles: FloatArray,
+    beam_cos: FloatArray,
+    beam_sin: FloatArray,
+    max_range: float,
+    out: FloatArray,
+    grid: tuple,  # SegmentGrid.kernel_args
+) -> bool:
+    """`lrf_ranges` on a prebuilt `SegmentGrid` in one call when `beam_angles` equal `known_angles`
+    (whose cos and sin are given); False, without casting, when they differ."""
+    if not _equal(beam_angles, known_angles):
+        return False
+    data, flags, starts, x0, y0, h, nx, ny = grid
+    _cast_grid(x, y, theta, data, flags, starts, x0, y0, h, nx, ny, beam_cos, beam_sin, max_range, out)
+    return True
+
+
 def _beams(beam_angles: FloatArray) -> tuple[FloatArray, FloatArray]:
     def make() -> tuple[FloatArray, FloatArray]:
         if np.any(np.diff(beam_angles) < 0.0):
@@ -456,6 +478,7 @@ def lrf_ranges(
     beam_angles: FloatArray,
     max_range: float = PICO_RANGE_MAX_M,
     one_sided: np.ndarray | None = None,
+    out: FloatArray | None = None,
 ) -> FloatArray:
     """Exact noiseless ranges of a scan: distance along each beam to the nearest segment.
 
@@ -467,16 +490,21 @@ def lrf_ranges(
         one_sided: optional flag per segment: a segment of a closed outline directed with the
             free side on its left, which the cast may skip when the sensor is on its other side
             (a `SegmentGrid` holds its own flags).
+        out: optional float64 array of one element per beam to write the ranges into (and
+            return), as numpy's `out=`: a loop over poses then allocates nothing.
 
     Returns:
-        A float64 array, one range per beam, `inf` where the beam hits nothing within max_range.
+        A float64 array (`out` when given), one range per beam, `inf` where the beam hits
+        nothing within max_range.
 
     Raises:
-        ValueError: when the beam angles are not in ascending order.
+        ValueError: when the beam angles are not in ascending order, or `out` is not a
+            contiguous float64 array of one element per beam.
 
     The beams' directions and, for `GRID_MIN_SEGMENTS` segments or more, the grid are kept for the
     next calls with equal arrays (equal by content, checked every call: an array may have changed in
-    place), so a loop over poses costs the env's own scan plus that check.
+    place), so a loop over poses costs the env's own scan plus that check; a prebuilt `SegmentGrid`
+    (whose segments must not change) skips the check of the segments.
 
     >>> square = np.array([[-1, -1, 1, -1], [1, -1, 1, 1], [1, 1, -1, 1], [-1, 1, -1, -1]], float)
     >>> lrf_ranges(Pose(0.0, 0.0, 0.0), square, np.array([0.0, math.pi / 4])).round(6).tolist()
@@ -484,40 +512,59 @@ def lrf_ranges(
     """
     if not (type(beam_angles) is np.ndarray and beam_angles.dtype.char == "d" and beam_angles.ndim == 1):
         beam_angles = np.ascontiguousarray(beam_angles, dtype=np.float64).reshape(-1)
-    out = np.empty(beam_angles.shape[0])
-    x, y, th = float(pose[0]), float(pose[1]), float(pose[2])
-    if not isinstance(segments, SegmentGrid):
-        if not (
-            type(segments) is np.ndarray
-            and segments.dtype.char == "d"
-            and segments.ndim == 2
-            and segments.shape[1] == 4
-            and segments.flags.c_contiguous
-        ):
-            segments = np.ascontiguousarray(segments, dtype=np.float64)
-            if segments.size % 4:
-                raise ValueError(f"segments must be (N, 4) rows (x1, y1, x2, y2), got shape {segments.shape}")
-            segments = segments.reshape(-1, 4)
-        flags = _NO_FLAGS if one_sided is None else np.ascontiguousarray(one_sided, dtype=np.bool_)
-        if len(segments) < GRID_MIN_SEGMENTS:
-            # The beams are those of the last call (checked in the kernel): one compiled call.
-            (known,), (cos, sin) = _BEAMS.entries[0] if _BEAMS.entries else ((_NO_ANGLES,), (_NO_ANGLES, _NO_ANGLES))
-            if not _cast_known_beams(x, y, th, segments, beam_angles, known, cos, sin, float(max_range), out, flags):
-                cos, sin = _beams(beam_angles)
-                _cast(x, y, th, segments, beam_angles, cos, sin, float(max_range), out, True, flags)
-                _no_hit_to_inf(out, float(max_range))
-            return out
-        if _GRIDS.entries and _BEAMS.entries:  # a loop over poses of one scene: one compiled call
-            (known_segments, known_flags), grid = _GRIDS.entries[0]
+    if out is None:
+        out = np.empty(beam_angles.shape[0])
+    elif not (
+        type(out) is np.ndarray
+        and out.dtype.char == "d"
+        and out.shape == beam_angles.shape
+        and out.flags.c_contiguous
+        and out.flags.writeable
+    ):
+        raise ValueError(
+            f"out must be a writeable contiguous float64 array of shape {beam_angles.shape} (one per beam), "
+            f"got {type(out).__name__} {getattr(out, 'dtype', '')} {getattr(out, 'shape', '')}"
+        )
+    x, y, th, max_range = float(pose[0]), float(pose[1]), float(pose[2]), float(max_range)
+    if isinstance(segments, SegmentGrid):
+        if _BEAMS.entries:  # a loop over poses with one set of beams: one compiled call
             (known,), (cos, sin) = _BEAMS.entries[0]
-            if _cast_known_grid(
-                x, y, th, segments, flags, beam_angles, known_segments, known_flags, known, cos, sin,
-                float(max_range), out, grid.kernel_args,
-            ):  # fmt: skip
+            if _cast_grid_known_beams(x, y, th, beam_angles, known, cos, sin, max_range, out, segments.kernel_args):
                 return out
-        segments = _GRIDS.get((segments, flags), lambda: SegmentGrid(segments, flags))
+        cos, sin = _beams(beam_angles)
+        segments.cast(x, y, th, cos, sin, max_range, out)
+        return out
+    if not (
+        type(segments) is np.ndarray
+        and segments.dtype.char == "d"
+        and segments.ndim == 2
+        and segments.shape[1] == 4
+        and segments.flags.c_contiguous
+    ):
+        segments = np.ascontiguousarray(segments, dtype=np.float64)
+        if segments.size % 4:
+            raise ValueError(f"segments must be (N, 4) rows (x1, y1, x2, y2), got shape {segments.shape}")
+        segments = segments.reshape(-1, 4)
+    flags = _NO_FLAGS if one_sided is None else np.ascontiguousarray(one_sided, dtype=np.bool_)
+    if len(segments) < GRID_MIN_SEGMENTS:
+        # The beams are those of the last call (checked in the kernel): one compiled call.
+        (known,), (cos, sin) = _BEAMS.entries[0] if _BEAMS.entries else ((_NO_ANGLES,), (_NO_ANGLES, _NO_ANGLES))
+        if not _cast_known_beams(x, y, th, segments, beam_angles, known, cos, sin, max_range, out, flags):
+            cos, sin = _beams(beam_angles)
+            _cast(x, y, th, segments, beam_angles, cos, sin, max_range, out, True, flags)
+            _no_hit_to_inf(out, max_range)
+        return out
+    if _GRIDS.entries and _BEAMS.entries:  # a loop over poses of one scene: one compiled call
+        (known_segments, known_flags), grid = _GRIDS.entries[0]
+        (known,), (cos, sin) = _BEAMS.entries[0]
+        if _cast_known_grid(
+            x, y, th, segments, flags, beam_angles, known_segments, known_flags, known, cos, sin,
+            max_range, out, grid.kernel_args,
+        ):  # fmt: skip
+            return out
+    grid = _GRIDS.get((segments, flags), lambda: SegmentGrid(segments, flags))
     cos, sin = _beams(beam_angles)
-    segments.cast(x, y, th, cos, sin, float(max_range), out)
+    grid.cast(x, y, th, cos, sin, max_range, out)
     return out
 
 
