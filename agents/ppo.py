@@ -136,7 +136,10 @@ class PpoAgent(Agent):
         seed: seeds the sampling generator.
         goal: for a policy trained with `point_goal` (privileged), what fills `obs["point_goal"]`
             when the env's observations lack it (`make_agent("ppo-pointgoal", env)` reads the
-            env's true state with `pico_gym.wrappers.point_goal`).
+            env's true state with `pico_gym.wrappers.point_goal`). A policy whose metadata says
+            `"point_goal_source": "exit"` needs none: the agent tracks the escape room's exit with
+            its own perception (`pico_gym.agents.exit_goal.ExitGoal`, with the metadata's
+            `"exit_goal"` arguments), as its training env did.
         shield: pass the policy's twist through the classic agents' safety filter on the current
             scan (`pico_gym.agents.classic.potential_field`: turns cut near corners, the command
             scaled down until the footprint keeps its margin from the scan's points). It knows
@@ -186,6 +189,14 @@ class PpoAgent(Agent):
         self._low, self._high = spec.robot.action_low, spec.robot.action_high
         self._first: np.ndarray | None = None
         self._goal = goal if learning.point_goal else None
+        self._exit_goal = None
+        if learning.point_goal and meta.get("point_goal_source") == "exit":
+            from pico_gym.agents.exit_goal import ExitGoal
+
+            try:
+                self._exit_goal = ExitGoal(spec, **(meta.get("exit_goal") or {}))
+            except (TypeError, ValueError) as exc:
+                raise ValueError(f"{path or SHIPPED_POLICY}: bad policy metadata (exit_goal: {exc})") from exc
         if shield is None:
             shield = meta.get("shield", False)
             if not isinstance(shield, bool):
@@ -197,12 +208,17 @@ class PpoAgent(Agent):
             self._shield = ScanShield(spec)
 
     def _with_goal(self, obs: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        if self._exit_goal is not None:
+            return {**obs, "point_goal": self._exit_goal.update(obs)}
         if self._goal is None or "point_goal" in obs:
             return obs
         return {**obs, "point_goal": self._goal()}
 
     def reset(self, obs: dict[str, np.ndarray], info: dict[str, Any] | None = None) -> None:
-        self._first = self.encoder.reset(self._with_goal(obs))
+        if self._exit_goal is not None:  # the first scan seen once, as ExitGoalObservation.reset
+            self._first = self.encoder.reset({**obs, "point_goal": self._exit_goal.reset(obs)})
+        else:
+            self._first = self.encoder.reset(self._with_goal(obs))
         self.rng = episode_rng(self.seed, obs)
 
     def act(self, obs: dict[str, np.ndarray]) -> np.ndarray:

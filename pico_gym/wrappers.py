@@ -444,7 +444,9 @@ class LearningConfig:
         range_scale: how ranges map to [0, 1]: "linear" or "log" (resolves the near field; see
             `scale_ranges`).
         point_goal: the frame ends with `obs["point_goal"]` (POINT_GOAL_SIZE values), which
-            `PrivilegedPointGoal` adds: privileged, for the end-to-end hospital baseline only.
+            `PrivilegedPointGoal` adds (privileged, for the end-to-end hospital baseline only),
+            or `pico_gym.agents.exit_goal.ExitGoalObservation` (the escape room's exit as the
+            robot's own perception tracks it) or the hybrid agent (its route's next waypoint).
         trail_sectors: bins of an `OdometryTrail` (where the robot has been, around it; 0: none).
     """
 
@@ -478,13 +480,12 @@ def mirror_maps(config: LearningConfig) -> tuple[np.ndarray, np.ndarray]:
     reflected = input[index] * sign.
 
     The LRF sectors, range memory and trail bins run from the robot's right to its left (or round
-    from behind), so each block is reversed; the odometry velocity's vy and w change sign. An
-    involution (index[index] is the identity). The point goal has no reflection here: refused.
-    The blocks' bins are symmetric to within a beam (1000 beams in 64 sectors), so a reflected world
-    encodes to the reflected input to within that, not to the bit.
+    from behind), so each block is reversed; the point goal's bearing and heading error change
+    sign (their sines do, `encode_goal`), and so do the odometry velocity's vy and w. An
+    involution (index[index] is the identity). The blocks' bins are symmetric to within a beam
+    (1000 beams in 64 sectors), so a reflected world encodes to the reflected input to within
+    that, not to the bit.
     """
-    if config.point_goal:
-        raise ValueError("mirror_maps: the point goal's encoding has no reflection (point_goal=True)")
     index: list[int] = []
     sign: list[float] = []
     blocks = [config.n_sectors] * (2 if config.max_pool else 1) + [config.memory_sectors, config.trail_sectors]
@@ -493,6 +494,10 @@ def mirror_maps(config: LearningConfig) -> tuple[np.ndarray, np.ndarray]:
         index += range(at + n - 1, at - 1, -1)
         sign += [1.0] * n
         at += n
+    if config.point_goal:  # [range, sin, cos of the bearing, sin, cos of the heading error]
+        index += range(at, at + POINT_GOAL_SIZE)
+        sign += [1.0, -1.0, 1.0, -1.0, 1.0]
+        at += POINT_GOAL_SIZE
     if config.odometry == "velocity":
         index += [at, at + 1, at + 2]
         sign += [1.0, -1.0, -1.0]
@@ -570,7 +575,8 @@ class LearningEncoder:
             if goal is None:
                 raise ValueError(
                     "LearningConfig(point_goal=True) needs obs['point_goal']: wrap the env in "
-                    "pico_gym.wrappers.PrivilegedPointGoal (before PicoLearningWrapper)"
+                    "pico_gym.wrappers.PrivilegedPointGoal or pico_gym.agents.exit_goal.ExitGoalObservation "
+                    "(before PicoLearningWrapper)"
                 )
             frame[self._goal_at : self._goal_at + POINT_GOAL_SIZE] = goal
         if self.config.odometry == "velocity":

@@ -623,10 +623,21 @@ def test_mirrored_policy_configs_it_cannot_reflect_are_refused(tmp_path):
     path.write_text(MIRRORED.replace("  n_steps: 256\n", "  normalize: true\n  n_steps: 256\n"))
     with pytest.raises(ConfigError, match="normalize"):
         load_config(path)
+    # A point goal with nothing to fill it: the wrapper its source needs is named.
     path.write_text(
         MIRRORED.replace("        trail_sectors: 4\n", "        trail_sectors: 4\n        point_goal: true\n")
     )
-    with pytest.raises(ConfigError, match="point goal"):
+    with pytest.raises(ConfigError, match="PrivilegedPointGoal"):
+        load_config(path)
+    path.write_text(
+        MIRRORED.replace("        trail_sectors: 4\n", "        trail_sectors: 4\n        point_goal: true\n").replace(
+            "pico-gym:\n", "pico-gym:\n  point_goal_source: exit\n"
+        )
+    )
+    with pytest.raises(ConfigError, match="ExitGoalObservation"):
+        load_config(path)
+    path.write_text(MIRRORED.replace("pico-gym:\n", "pico-gym:\n  point_goal_source: oracle\n"))
+    with pytest.raises(ConfigError, match="point_goal_source"):
         load_config(path)
 
 

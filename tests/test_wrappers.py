@@ -20,6 +20,7 @@ from pico_gym.wrappers import (
     PicoLearningWrapper,
     PrivilegedPointGoal,
     RangeMemory,
+    encode_goal,
     min_pool,
     point_goal,
     rescale_action,
@@ -364,8 +365,14 @@ def test_mirror_maps_reflect_the_learning_input() -> None:
         frame - 1,
     ]
     assert sign[frame - 3 : frame].tolist() == [1.0, -1.0, -1.0] and len(index) == 2 * frame
-    with pytest.raises(ValueError, match="point goal"):
-        mirror_maps(LearningConfig(point_goal=True))
+    # The point goal (before the velocity): range kept, the sines of bearing and heading error negated,
+    # which is encode_goal's answer in the reflected world.
+    goal_config = LearningConfig(n_sectors=8, frame_stack=1, point_goal=True)
+    g_index, g_sign = mirror_maps(goal_config)
+    assert g_index[8:13].tolist() == list(range(8, 13)) and g_sign[8:13].tolist() == [1.0, -1.0, 1.0, -1.0, 1.0]
+    assert g_sign[13:].tolist() == [1.0, -1.0, -1.0]
+    goal = encode_goal(0.3, 0.2, 0.4, 1.5, -0.7, 2.0)
+    assert encode_goal(0.3, -0.2, -0.4, 1.5, 0.7, -2.0) == pytest.approx(goal * g_sign[8:13], abs=1e-6)
 
     env = gym.make("PicoEscape-v0")
     obs, _ = env.reset(seed=3)

@@ -62,7 +62,13 @@ PICO_DEFAULTS: dict[str, Any] = {
     "bc_log_std": None,
     "bc_announce": "teacher",
     "agent": "ppo",
+    "point_goal_source": "privileged",
 }
+# Where a point-goal policy's `obs["point_goal"]` comes from (a config's `point_goal_source`):
+# the env's true state (`pico_gym.wrappers.PrivilegedPointGoal`, the hospital's end-to-end
+# baseline) or the escape room's exit as the robot's own perception tracks it
+# (`pico_gym.agents.exit_goal.ExitGoalObservation`: not privileged).
+POINT_GOAL_SOURCES = ("privileged", "exit")
 # What plays a trained policy in evaluations: the policy alone, or the hybrid hospital agent (the
 # classic agent with the policy driving between its waypoints; its env_wrapper is
 # pico_gym.train.hybrid.HybridTraining).
@@ -153,19 +159,27 @@ def load_config(path: str | Path, env_id: str | None = None) -> TrainConfig:
             f"{path}: {PICO_KEY}.bc_announce 'arrival' labels the announcement, so the env needs arrival: announce "
             f"(got {arrival!r})"
         )
+    if pico["point_goal_source"] not in POINT_GOAL_SOURCES:
+        raise ConfigError(
+            f"{path}: {PICO_KEY}.point_goal_source must be one of {POINT_GOAL_SOURCES}, "
+            f"got {pico['point_goal_source']!r}"
+        )
     if pico["vec_env"] not in VEC_ENVS:
         raise ConfigError(f"{path}: {PICO_KEY}.vec_env must be one of {VEC_ENVS}, got {pico['vec_env']!r}")
     variants = pico["train_env_variants"]
     if not isinstance(variants, list) or not all(isinstance(v, dict) for v in variants):
         raise ConfigError(f"{path}: {PICO_KEY}.train_env_variants must be a list of env kwargs dicts, got {variants!r}")
     config = TrainConfig(env_id, zoo, pico, str(path))
-    if zoo["policy"] == MIRROR_POLICY:
-        if zoo.get("normalize"):
+    if zoo["policy"] == MIRROR_POLICY and zoo.get("normalize"):
+        raise ConfigError(f"{path}: {env_id}.policy {MIRROR_POLICY} reflects the raw input: it cannot take normalize")
+    if config.learning.point_goal and pico["agent"] != "hybrid":
+        wrappers = [_wrapper_entry(e)[0] for e in zoo["env_wrapper"] or []]
+        wanted = {"privileged": "PrivilegedPointGoal", "exit": "ExitGoalObservation"}[pico["point_goal_source"]]
+        if not any(w.rsplit(".", 1)[-1] == wanted for w in wrappers):
             raise ConfigError(
-                f"{path}: {env_id}.policy {MIRROR_POLICY} reflects the raw input: it cannot take normalize"
+                f"{path}: {env_id}.env_wrapper needs {wanted} before the learning wrapper for point_goal with "
+                f"{PICO_KEY}.point_goal_source {pico['point_goal_source']!r}; it has {wrappers}"
             )
-        if pico["agent"] == "hybrid" or config.learning.point_goal:
-            raise ConfigError(f"{path}: {env_id}.policy {MIRROR_POLICY} has no reflection of the point goal")
     if pico["vec_env"] == "vector":
         check_vector(config)
     config.learning  # noqa: B018  (validates the wrapper entry now, not after minutes of setup)
@@ -267,15 +281,35 @@ def train_env_kwargs(config: TrainConfig, index: int = 0) -> dict[str, Any]:
 
 
 def make_plain_env(config: TrainConfig, **kwargs: Any) -> gym.Env:
-    """An env for evaluation and demonstrations: `gym.make` with `kwargs`, plus the privileged
-    `PrivilegedPointGoal` when the policy sees a point goal (the training envs get it from the
-    config's env_wrapper list)."""
+    """An env for evaluation and demonstrations: `gym.make` with `kwargs`, plus what fills
+    `obs["point_goal"]` when the policy sees one (`point_goal_source`: the privileged
+    `PrivilegedPointGoal`, or `ExitGoalObservation` with the config's own arguments; the training
+    envs get it from the config's env_wrapper list)."""
     env = gym.make(config.env_id, **kwargs)
     if config.learning.point_goal and config.pico["agent"] != "hybrid":  # the hybrid agent computes its own
+        if config.pico["point_goal_source"] == "exit":
+            from pico_gym.agents.exit_goal import ExitGoalObservation
+
+            given = [_wrapper_entry(e) for e in config.zoo["env_wrapper"]]
+            kwargs = next((k or {} for name, k in given if name.endswith("ExitGoalObservation")), {})
+            return ExitGoalObservation(env, **kwargs)
         from pico_gym.wrappers import PrivilegedPointGoal
 
         env = PrivilegedPointGoal(env)
     return env
+
+
+def goal_metadata(config: TrainConfig) -> dict[str, Any]:
+    """What a saved policy's metadata says about its point goal (`PpoAgent` reads it): for a
+    policy whose goal is the exit its own perception tracks, the `ExitGoal` arguments too."""
+    if not config.learning.point_goal or config.pico.get("agent") == "hybrid":
+        return {}
+    source = config.pico.get("point_goal_source", "privileged")
+    if source != "exit":
+        return {"point_goal_source": source}
+    given = [_wrapper_entry(e) for e in config.zoo["env_wrapper"]]
+    kwargs = next((k or {} for name, k in given if name.endswith("ExitGoalObservation")), {})
+    return {"point_goal_source": "exit", "exit_goal": dict(kwargs)}
 
 
 def make_env(config: TrainConfig, rng: np.random.Generator, index: int = 0) -> gym.Env:
@@ -417,6 +451,7 @@ def _callbacks() -> Any:
                     env_id=self.config.env_id,
                     env_kwargs=self.config.pico["env_kwargs"],
                     timesteps=self.num_timesteps,
+                    **goal_metadata(self.config),
                 )
             return row
 
@@ -806,6 +841,7 @@ def train(
         env_kwargs=config.pico["env_kwargs"],
         timesteps=model.num_timesteps,
         seed=seed,
+        **goal_metadata(config),
     )
     _join_progress(run_dir)
     try:

@@ -193,13 +193,16 @@ def ship(
         env_id = next(k for k in config if k not in ("pico-gym", "run"))
         if config[env_id].get("normalize"):
             raise SystemExit(f"{source}: ship best.zip or model.zip, which carry the VecNormalize statistics")
-        learning = TrainConfig(env_id, config[env_id], config["pico-gym"], str(run_dir)).learning
+        from pico_gym.train.ppo import goal_metadata
+
+        resolved = TrainConfig(env_id, config[env_id], config["pico-gym"], str(run_dir))
         meta = {
             "algo": "ppo",
-            "learning": learning.to_dict(),
+            "learning": resolved.learning.to_dict(),
             "env_id": env_id,
             "env_kwargs": config["pico-gym"].get("env_kwargs") or {},
             "timesteps": int(m.group(1)),
+            **goal_metadata(resolved),
         }
     evals = list(csv.DictReader((run_dir / "eval.csv").open())) if (run_dir / "eval.csv").exists() else []
     meta["wall_clock_s"] = wall_clock(run_dir, int(meta.get("timesteps", -1))) or done.get("wall_clock_s")
