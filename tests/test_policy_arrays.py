@@ -29,7 +29,7 @@ def _recorded_observations(n_episodes: int = 3, steps: int = 80) -> list[np.ndar
             obs, _, terminated, truncated, _ = env.step(agent.act(obs))
             if terminated or truncated:
                 break
-            xs.append(agent.encoder.encode(obs).copy())
+            xs.append(agent.encoder.encode(agent._with_goal(obs)).copy())  # the goal too, when it has one
             agent._first = xs[-1]
     return xs
 

@@ -302,6 +302,16 @@ def _write_card(meta: dict[str, Any], config: dict[str, Any], rows: list[str], t
         + ", ".join(f"{k}={v!r}" for k, v in meta["learning"].items())
         + ")` (min-pooled LRF sectors, 360-degree range memory, odometry velocity, frame stack); "
         "actions in [-1, 1] rescaled to the robot's limits.",
+        *(
+            [
+                "- Point goal: the exit as the robot's own perception tracks it (`pico_gym.agents.exit_goal.ExitGoal`"
+                f"({', '.join(f'{k}={v!r}' for k, v in (meta.get('exit_goal') or {}).items())}): the classic agent's "
+                "mouth detection on the LRF, tracked with odometry; not privileged), computed by the agent itself "
+                "as it plays."
+            ]
+            if meta.get("point_goal_source") == "exit"
+            else []
+        ),
         f'- Loads with `make_agent("{target.agent}", env)` from `{name}.npz` (the actor as plain arrays, numpy '
         f"only, loaded with pickling off); `{name}.zip` is the stable-baselines3 training artefact (needs torch, "
         "the `train` extra). A zip or pickle runs code when loaded: use only files from a source you trust.",
