@@ -290,9 +290,7 @@ def make_plain_env(config: TrainConfig, **kwargs: Any) -> gym.Env:
         if config.pico["point_goal_source"] == "exit":
             from pico_gym.agents.exit_goal import ExitGoalObservation
 
-            given = [_wrapper_entry(e) for e in config.zoo["env_wrapper"]]
-            kwargs = next((k or {} for name, k in given if name.endswith("ExitGoalObservation")), {})
-            return ExitGoalObservation(env, **kwargs)
+            return ExitGoalObservation(env, **_exit_goal_kwargs(config))
         from pico_gym.wrappers import PrivilegedPointGoal
 
         env = PrivilegedPointGoal(env)
@@ -307,9 +305,13 @@ def goal_metadata(config: TrainConfig) -> dict[str, Any]:
     source = config.pico.get("point_goal_source", "privileged")
     if source != "exit":
         return {"point_goal_source": source}
-    given = [_wrapper_entry(e) for e in config.zoo["env_wrapper"]]
-    kwargs = next((k or {} for name, k in given if name.endswith("ExitGoalObservation")), {})
-    return {"point_goal_source": "exit", "exit_goal": dict(kwargs)}
+    return {"point_goal_source": "exit", "exit_goal": _exit_goal_kwargs(config)}
+
+
+def _exit_goal_kwargs(config: TrainConfig) -> dict[str, Any]:
+    """The arguments the config's env_wrapper gives ExitGoalObservation ({} when none)."""
+    given = [_wrapper_entry(e) for e in config.zoo["env_wrapper"] or []]
+    return dict(next((k or {} for name, k in given if name.endswith("ExitGoalObservation")), {}))
 
 
 def make_env(config: TrainConfig, rng: np.random.Generator, index: int = 0) -> gym.Env:

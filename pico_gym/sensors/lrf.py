@@ -430,15 +430,9 @@ def _cast_known_grid(
 ) -> bool:
     """`lrf_ranges`' grid cast in one call when the segments, flags and beams equal those the
     newest grid and beams were made from; False, without casting, when anything differs."""
-    if not (
-        _equal(beam_angles, known_angles)
-        and _equal(one_sided, known_one_sided)
-        and _same_segments(segments, known_segments)
-    ):
+    if not (_equal(one_sided, known_one_sided) and _same_segments(segments, known_segments)):
         return False
-    data, flags, starts, x0, y0, h, nx, ny = grid
-    _cast_grid(x, y, theta, data, flags, starts, x0, y0, h, nx, ny, beam_cos, beam_sin, max_range, out)
-    return True
+    return _cast_grid_known_beams(x, y, theta, beam_angles, known_angles, beam_cos, beam_sin, max_range, out, grid)
 
 
 @njit
