@@ -79,6 +79,8 @@ def test_bench_env_prints_all_figures(capsys: pytest.CaptureFixture[str]) -> Non
         assert f"make_vec, {row}" in out
     moving = out.split("the sensor at 64 free poses in turn")[1]
     assert all(f"{n:>4} segments" in moving for n in (20, 100, 400, 1000, 2000))
+    noisy = out.split("as each env scans on every step")[1].split("the sensor at 64 free poses")[0]
+    assert all(f"{n:>4} segments" in noisy for n in (20, 100, 400, 1000, 2000)) and "hospital_2021" in noisy
 
 
 def test_clutter_scene_has_the_asked_segment_count() -> None:
@@ -101,3 +103,19 @@ def test_bench_walls_counts_overlaps_of_the_true_footprint(capsys: pytest.Captur
     main(["bench-walls", "--steps", "600"])
     out = capsys.readouterr().out
     assert "adversarial driving:" in out and "true footprint overlapping something solid:" in out
+
+
+def test_the_f1tenth_reference_as_shipped_is_its_lean_loop_plus_noise() -> None:
+    """The bench's two f1tenth references march the same raster: the as-written one (its lookup
+    through the image frame, a new array per scan) gives the lean loop's ranges, plus its noise."""
+    from pico_gym.sensors.raymarch import RayMarchScanner
+
+    marcher = RayMarchScanner(clutter_scene(400, seed=4))
+    for x, y, theta in free_poses(clutter_scene(400, seed=4), 8, seed=1):
+        lean = marcher.scan(x, y, theta).copy()
+        pose = np.array([x, y, theta])
+        first = marcher.scan_as_shipped(pose, np.random.default_rng(3), std_dev=0.0)
+        assert np.array_equal(first, lean)
+        assert marcher.scan_as_shipped(pose, np.random.default_rng(3), std_dev=0.0) is not first
+        noisy = marcher.scan_as_shipped(pose, np.random.default_rng(3))
+        assert np.array_equal(noisy, lean + np.random.default_rng(3).normal(0.0, 0.01, lean.size))

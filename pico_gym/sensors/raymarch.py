@@ -7,6 +7,12 @@ machine. It follows f1tenth_gym's `laser_models.get_scan`/`trace_ray` (1080 beam
 distance transform of the free cells, and march each beam forward by the distance to the nearest
 occupied cell until it is within eps. Its cost follows the free space a beam crosses, not the
 number of segments; its ranges are quantised by the raster.
+
+`RayMarchScanner.scan` is the lean form of that loop (the map frame is the raster's, the ranges go
+into a kept array); `RayMarchScanner.scan_as_shipped` does what f1tenth_gym's
+`ScanSimulator2D.scan(pose, rng)` does on every call of its env: each distance lookup moves the point
+into the map image's frame (translation, then rotation by the origin's yaw) and bounds-checks it, a
+new array holds each scan, and Gaussian noise (std 0.01 m, one normal draw per beam) is added.
 """
 
 from __future__ import annotations
@@ -138,6 +144,66 @@ def _scan(
             index -= theta_dis
 
 
+@njit
+def _image_cell(
+    x: float, y: float, x0: float, y0: float, cos0: float, sin0: float, height: int, width: int, res: float
+) -> tuple[int, int]:
+    """f1tenth_gym's lookup cell: (row, col) of a map point in the image, (-1, -1) off it."""
+    xt = x - x0
+    yt = y - y0
+    xr = xt * cos0 + yt * sin0
+    yr = -xt * sin0 + yt * cos0
+    if xr < 0.0 or xr >= width * res or yr < 0.0 or yr >= height * res:
+        return -1, -1
+    return int(yr / res), int(xr / res)
+
+
+@njit
+def _scan_as_shipped(
+    pose: np.ndarray,
+    n_beams: int,
+    fov: float,
+    sines: np.ndarray,
+    cosines: np.ndarray,
+    x0: float,
+    y0: float,
+    yaw0: float,
+    res: float,
+    dt: np.ndarray,
+    eps: float,
+    max_range: float,
+) -> np.ndarray:
+    """`_scan` as f1tenth_gym's `get_scan` runs it: the lookup through `_image_cell`, a new array."""
+    theta_dis = sines.shape[0]
+    increment = theta_dis * (fov / (n_beams - 1)) / (2.0 * math.pi)
+    cos0 = math.cos(yaw0)
+    sin0 = math.sin(yaw0)
+    height, width = dt.shape
+    out = np.empty(n_beams)
+    index = np.fmod(theta_dis * (pose[2] - fov / 2.0) / (2.0 * math.pi), theta_dis)
+    while index < 0.0:
+        index += theta_dis
+    for i in range(n_beams):
+        s = sines[int(index)]
+        c = cosines[int(index)]
+        px = pose[0]
+        py = pose[1]
+        r, col = _image_cell(px, py, x0, y0, cos0, sin0, height, width, res)
+        step = dt[r, col]  # (-1, -1) off the image reads its last cell, as in f1tenth_gym
+        total = step
+        while step > eps and total <= max_range:
+            px += step * c
+            py += step * s
+            r, col = _image_cell(px, py, x0, y0, cos0, sin0, height, width, res)
+            step = dt[r, col]
+            total += step
+        out[i] = min(total, max_range)
+        index += increment
+        while index >= theta_dis:
+            index -= theta_dis
+    return out
+
+
 class RayMarchScanner:
     """f1tenth_gym's scan on a raster of `segments` (resolution `res` metres)."""
 
@@ -162,3 +228,12 @@ class RayMarchScanner:
             self.res, self.dt, F1TENTH_EPS, F1TENTH_MAX_RANGE_M, self.out,
         )  # fmt: skip
         return self.out
+
+    def scan_as_shipped(self, pose: np.ndarray, rng: np.random.Generator, std_dev: float = 0.01) -> np.ndarray:
+        """A new noisy scan from pose (x, y, theta) as an array, as f1tenth_gym's env takes one."""
+        scan = _scan_as_shipped(
+            pose, self.n_beams, self.fov, self.sines, self.cosines, self.origin[0], self.origin[1], 0.0,
+            self.res, self.dt, F1TENTH_EPS, F1TENTH_MAX_RANGE_M,
+        )  # fmt: skip
+        scan += rng.normal(0.0, std_dev, size=self.n_beams)
+        return scan
