@@ -21,6 +21,7 @@ drives (`observe` / `policy_input` / `finish` are the seams the training wrapper
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -29,7 +30,7 @@ import numpy as np
 
 from pico_gym.agents.base import RobotSpec
 from pico_gym.agents.classic.hospital import HospitalAgent, HospitalAgentConfig, State
-from pico_gym.agents.classic.potential_field import keep_in_view
+from pico_gym.agents.classic.potential_field import keep_in_view, safety_filter
 from pico_gym.agents.shield import ScanMemory, SeenFree, blind_translation, blind_turn
 from pico_gym.overlay import Overlay
 from pico_gym.types import FloatArray
@@ -80,6 +81,12 @@ class HybridConfig:
             at a heading the safety filter will not let the robot turn from; the dock servo's
             command is then cut to nothing (dev hospital_2021 200-229: median 128.8 s, 119.9 s
             with 3 s). 0: off.
+        recover_turn: while recovering, when every filter cuts the command to nothing, turn in
+            place if the safety filter alone lets a turn through (towards the nearest direction
+            behind the view that it lets the robot translate along, first). The classic part's
+            `safe_turn` allows no turn with a corner within `turn_keep_m` of anything, so a robot
+            whose rear corner the policy drove against a wall stood there until the idle rule
+            ended the run (dev busy 2019 9197).
     """
 
     lookahead_m: float = 1.0
@@ -90,6 +97,7 @@ class HybridConfig:
     blind_translation: bool = True
     blind_near_m: float = 0.0
     dock_still_s: float = 3.0
+    recover_turn: bool = True
 
     def __post_init__(self) -> None:
         if not (isinstance(self.lookahead_m, (int, float)) and 0.1 <= self.lookahead_m <= 5.0):
@@ -104,6 +112,8 @@ class HybridConfig:
             isinstance(self.dock_still_s, (int, float)) and 0.0 <= self.dock_still_s <= 60.0
         ):
             raise ValueError(f"HybridConfig.dock_still_s must be in [0, 60] s, got {self.dock_still_s!r}")
+        if not isinstance(self.recover_turn, bool):
+            raise ValueError(f"HybridConfig.recover_turn must be true or false, got {self.recover_turn!r}")
         if not isinstance(self.blind_translation, bool):
             raise ValueError(f"HybridConfig.blind_translation must be true or false, got {self.blind_translation!r}")
         if not (isinstance(self.blind_memory_s, (int, float)) and 0.0 <= self.blind_memory_s <= 10.0):
@@ -280,6 +290,37 @@ class HybridAgent(HospitalAgent):
                 command = (twist[0], twist[1], blind_turn(twist, self.motion, *self._view, seen_free=seen_free))
             return self._finish(self._near, command)
         return np.array([*command, -1.0] if self.announce else command, dtype=np.float32)
+
+    def _finish(self, near: FloatArray, command: tuple[float, float, float]) -> np.ndarray:
+        out = super()._finish(near, command)
+        if not (self.hybrid.recover_turn and self.state is State.RECOVER) or len(near) == 0:
+            return out
+        if math.hypot(float(out[0]), float(out[1])) > 0.03 or abs(float(out[2])) > 0.08:
+            return out  # it moves
+        motion = self.motion
+        sense = self._way_out_sense(near)
+        for w in (0.5 * sense, 0.25 * sense, -0.5 * sense, -0.25 * sense):
+            _, _, fw = safety_filter(near, (0.0, 0.0, w * motion.max_turn), motion)
+            if abs(fw) > 0.08:
+                out[:3] = (0.0, 0.0, fw)
+                self.still_steps = 0
+                break
+        return out
+
+    def _way_out_sense(self, near: FloatArray) -> float:
+        """+1 (left) or -1: the sense of turn that brings the nearest direction behind the view
+        that the safety filter lets the robot translate along into view (+1 if none)."""
+        lo, hi = self._view
+        best, best_off = 1.0, math.inf
+        for a in np.linspace(-math.pi, math.pi, 24, endpoint=False):
+            a = float(a)
+            off = a - hi if a > hi else lo - a  # how far behind the view's edge
+            if off < 0.0 or off >= best_off:
+                continue
+            tx, ty, _ = safety_filter(near, (0.2 * math.cos(a), 0.2 * math.sin(a), 0.0), self.motion)
+            if math.hypot(tx, ty) > 0.03:
+                best, best_off = math.copysign(1.0, a), off
+        return best
 
     def _max_still_s(self) -> float:
         """The classic part's never-stand-still limit, shorter while docking (`dock_still_s`)."""

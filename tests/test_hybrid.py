@@ -247,3 +247,35 @@ def test_hybrid_config_refuses_a_bad_dock_still_s() -> None:
     for bad in (-1.0, float("nan"), 61.0, True, "3"):
         with pytest.raises(ValueError, match="dock_still_s"):
             HybridConfig(dock_still_s=bad)  # type: ignore[arg-type]
+
+
+def test_a_wedged_recovery_turns_where_the_safety_filter_lets_it(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """A wall touching the right side's corners: `safe_turn` allows no turn (a corner within
+    `turn_keep_m`) and the recovery's translation into the wall is cut to nothing; with
+    `recover_turn` the recovering robot turns (a sense the safety filter lets through), without it
+    it stands."""
+    env = gym.make("PicoHospital-v0", **QUIET)
+    turns = {}
+    for on in (True, False):
+        agent = make_agent("hybrid", env, path=_policy_file(tmp_path, env))
+        agent.hybrid = HybridConfig(recover_turn=on)
+        obs, info = env.reset(seed=3)
+        agent.reset(obs, info)
+        agent.act(obs)
+        agent._go(State.RECOVER)
+        m = agent.motion
+        near = np.array([[m.half_depth + 0.002, -m.half_width - 0.002], [-m.half_depth - 0.002, -m.half_width - 0.002]])
+        out = agent._finish(near, (0.0, -0.2, 0.0))  # sideways into the wall
+        assert abs(out[0]) < 1e-9 and abs(out[1]) < 1e-9
+        turns[on] = float(out[2])
+    assert abs(turns[False]) < 1e-9
+    assert abs(turns[True]) > 0.08
+    # The turn it takes keeps the corner off the point (the safety filter's own verdict).
+    from pico_gym.agents.classic.potential_field import safety_filter
+
+    assert safety_filter(near, (0.0, 0.0, turns[True]), m)[2] == pytest.approx(turns[True])
+
+
+def test_hybrid_config_refuses_a_bad_recover_turn() -> None:
+    with pytest.raises(ValueError, match="recover_turn"):
+        HybridConfig(recover_turn="yes")  # type: ignore[arg-type]
