@@ -292,6 +292,8 @@ class HybridAgent(HospitalAgent):
         return np.array([*command, -1.0] if self.announce else command, dtype=np.float32)
 
     def _finish(self, near: FloatArray, command: tuple[float, float, float]) -> np.ndarray:
+        """The classic part's filters and never-stand-still rule; then, recovering with the command
+        cut to nothing, a turn in place the safety filter lets through (`recover_turn`)."""
         out = super()._finish(near, command)
         if not (self.hybrid.recover_turn and self.state is State.RECOVER) or len(near) == 0:
             return out
