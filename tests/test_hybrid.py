@@ -224,16 +224,22 @@ def test_seen_free_is_what_a_beam_passed_or_the_robot_stood_on() -> None:
     assert seen.free(ahead, now).tolist() == [False, False, False, False, True, False, False]
 
 
+def _agent_in(state: State, env: gym.Env, tmp_path, hybrid: HybridConfig) -> HybridAgent:  # type: ignore[no-untyped-def]
+    """A hybrid agent (standing-still policy) one step into a quiet episode, put in `state`."""
+    agent = make_agent("hybrid", env, path=_policy_file(tmp_path, env))
+    agent.hybrid = hybrid
+    obs, info = env.reset(seed=3)
+    agent.reset(obs, info)
+    agent.act(obs)
+    agent._go(state)
+    agent.still_steps = 0
+    return agent
+
+
 def test_docking_that_stands_still_recovers_after_dock_still_s(tmp_path) -> None:  # type: ignore[no-untyped-def]
     env = gym.make("PicoHospital-v0", **QUIET)
     for seconds, expected in ((3.0, State.RECOVER), (0.0, State.DOCK)):
-        agent = make_agent("hybrid", env, path=_policy_file(tmp_path, env))
-        agent.hybrid = HybridConfig(dock_still_s=seconds)
-        obs, info = env.reset(seed=3)
-        agent.reset(obs, info)
-        agent.act(obs)
-        agent._go(State.DOCK)
-        agent.still_steps = 0
+        agent = _agent_in(State.DOCK, env, tmp_path, HybridConfig(dock_still_s=seconds))
         steps = int(round(3.0 / env.unwrapped.config.dt_s))
         states = []
         for _ in range(steps):
@@ -257,12 +263,7 @@ def test_a_wedged_recovery_turns_where_the_safety_filter_lets_it(tmp_path) -> No
     env = gym.make("PicoHospital-v0", **QUIET)
     turns = {}
     for on in (True, False):
-        agent = make_agent("hybrid", env, path=_policy_file(tmp_path, env))
-        agent.hybrid = HybridConfig(recover_turn=on)
-        obs, info = env.reset(seed=3)
-        agent.reset(obs, info)
-        agent.act(obs)
-        agent._go(State.RECOVER)
+        agent = _agent_in(State.RECOVER, env, tmp_path, HybridConfig(recover_turn=on))
         m = agent.motion
         near = np.array([[m.half_depth + 0.002, -m.half_width - 0.002], [-m.half_depth - 0.002, -m.half_width - 0.002]])
         out = agent._finish(near, (0.0, -0.2, 0.0))  # sideways into the wall
