@@ -31,7 +31,7 @@ import numpy as np
 from pico_gym.agents.base import RobotSpec
 from pico_gym.agents.classic.hospital import HospitalAgent, HospitalAgentConfig, State
 from pico_gym.agents.classic.potential_field import keep_in_view, safety_filter
-from pico_gym.agents.shield import ScanMemory, SeenFree, blind_translation, blind_turn
+from pico_gym.agents.shield import ScanMemory, SeenFree, behind_seen_free, blind_translation, blind_turn
 from pico_gym.overlay import Overlay
 from pico_gym.types import FloatArray
 from pico_gym.wrappers import LearningConfig, LearningEncoder, encode_goal, rescale_action, unit_action
@@ -87,6 +87,15 @@ class HybridConfig:
             `safe_turn` allows no turn with a corner within `turn_keep_m` of anything, so a robot
             whose rear corner the policy drove against a wall stood there until the idle rule
             ended the run (dev busy 2019 9197).
+        walk_in_mps: if > 0 (opt-in), the policy may back into the strip behind the footprint
+            only where the shield's memory (`SeenFree`) saw it free, with what it saw taken back
+            at this speed (a walking person's: 0.5 m/s in the course's mover configs), or within
+            `back_budget_m` of backing since it last did. The bumps into people on busy 2019 dev
+            seeds were slow backward creeps (2-5 cm/s, each step within the shield's prediction
+            slack) into a person who had followed the robot and stood just behind it. It cuts
+            them but costs the shipped policy, which backs along corridors, generated episodes
+            (README, "The hybrid hospital agent"). The classic part's driving is not cut.
+        back_budget_m: see `walk_in_mps` [m].
     """
 
     lookahead_m: float = 1.0
@@ -98,6 +107,8 @@ class HybridConfig:
     blind_near_m: float = 0.0
     dock_still_s: float = 3.0
     recover_turn: bool = True
+    walk_in_mps: float = 0.0
+    back_budget_m: float = 0.1
 
     def __post_init__(self) -> None:
         if not (isinstance(self.lookahead_m, (int, float)) and 0.1 <= self.lookahead_m <= 5.0):
@@ -114,6 +125,14 @@ class HybridConfig:
             raise ValueError(f"HybridConfig.dock_still_s must be in [0, 60] s, got {self.dock_still_s!r}")
         if not isinstance(self.recover_turn, bool):
             raise ValueError(f"HybridConfig.recover_turn must be true or false, got {self.recover_turn!r}")
+        if isinstance(self.walk_in_mps, bool) or not (
+            isinstance(self.walk_in_mps, (int, float)) and 0.0 <= self.walk_in_mps <= 5.0
+        ):
+            raise ValueError(f"HybridConfig.walk_in_mps must be in [0, 5] m/s, got {self.walk_in_mps!r}")
+        if isinstance(self.back_budget_m, bool) or not (
+            isinstance(self.back_budget_m, (int, float)) and 0.0 <= self.back_budget_m <= 10.0
+        ):
+            raise ValueError(f"HybridConfig.back_budget_m must be in [0, 10] m, got {self.back_budget_m!r}")
         if not isinstance(self.blind_translation, bool):
             raise ValueError(f"HybridConfig.blind_translation must be true or false, got {self.blind_translation!r}")
         if not (isinstance(self.blind_memory_s, (int, float)) and 0.0 <= self.blind_memory_s <= 10.0):
@@ -215,7 +234,9 @@ class HybridAgent(HospitalAgent):
             lrf.range_max_m,
             self.motion.half_depth,
             self.motion.half_width,
+            walk_in_mps=float(self.hybrid.walk_in_mps),
         )
+        self._back_left = self.hybrid.back_budget_m  # backing left into unvouched space [m]
         self._leg = 0  # the cabinet the recoveries below were counted for
         self._recoveries = 0  # recoveries the policy's driving ended in on this leg
         self._drove = False  # the policy drove the last step
@@ -281,15 +302,29 @@ class HybridAgent(HospitalAgent):
         if self.hybrid.shield or self.state is not State.NAVIGATE:
             if self.hybrid.blind_turn and self._cluttered():
                 vx, vy = keep_in_view(np.array(command[:2]), self.motion)
-                seen_free = lambda pts: self._seen_free.free(pts, self._odom)  # noqa: E731
+                seen_free = lambda pts: self._seen_free.free(pts, self._odom, aged=False)  # noqa: E731
                 # First, so that a turn in place is left to the filter; while navigating only: a
                 # robot boxed in (yielding, recovering) must be free to edge out.
                 if self.hybrid.blind_translation and self.state is State.NAVIGATE:
-                    vx, vy = blind_translation((vx, vy, command[2]), self.motion, *self._view, seen_free=seen_free)
+                    vx, vy = self._translate((vx, vy, command[2]), seen_free)
                 twist = (float(vx), float(vy), command[2])
                 command = (twist[0], twist[1], blind_turn(twist, self.motion, *self._view, seen_free=seen_free))
             return self._finish(self._near, command)
         return np.array([*command, -1.0] if self.announce else command, dtype=np.float32)
+
+    def _translate(self, twist: tuple[float, float, float], seen_free: Any) -> tuple[float, float]:
+        """`blind_translation`; with `walk_in_mps`, backing only into the strip behind that was
+        seen free lately, or within `back_budget_m` of backing since it last was."""
+        if self.hybrid.walk_in_mps <= 0.0 or self.classic_leg:
+            return blind_translation(twist, self.motion, *self._view, seen_free=seen_free)
+        behind = behind_seen_free(self.motion, lambda pts: self._seen_free.free(pts, self._odom, aged=True))
+        if behind:
+            self._back_left = self.hybrid.back_budget_m
+        may_back = behind or self._back_left > 0.0
+        vx, vy = blind_translation(twist, self.motion, *self._view, seen_free=seen_free, may_back=may_back)
+        if vx < 0.0 and not behind:
+            self._back_left += vx * self.spec.dt_s
+        return vx, vy
 
     def _finish(self, near: FloatArray, command: tuple[float, float, float]) -> np.ndarray:
         """The classic part's filters and never-stand-still rule; then, recovering with the command

@@ -99,12 +99,19 @@ class SeenFree:
     drove through; the rear corners' sweep mostly lies there). Scans are kept every `every`
     steps with their odometry pose, poses every step.
 
+    With `walk_in_mps` > 0, what was seen free `a` seconds ago vouches only for points a person
+    walking at that speed could not have reached since: a beam's free stretch is shortened by
+    `walk_in_mps * a` and a kept pose's footprint shrunk by as much. A person who walks after the
+    robot steps into the footprint it has just left and into space its scans saw free a moment
+    ago; undecayed, that memory let the robot back into people it had never seen.
+
     Args:
         seconds: how long a scan is kept.
         dt_s: the control period (one scan per step).
         angle_min_rad, angle_max_rad, range_min_m, range_max_m: the LRF's.
         half_depth_m, half_width_m: the footprint, a rectangle round the robot's origin.
         every: keep every `every`-th scan.
+        walk_in_mps: the speed at which free space is taken back (0: never).
     """
 
     def __init__(
@@ -118,16 +125,20 @@ class SeenFree:
         half_depth_m: float,
         half_width_m: float,
         every: int = 2,
+        walk_in_mps: float = 0.0,
     ) -> None:
         if not (math.isfinite(seconds) and seconds >= 0.0):
             raise ValueError(f"SeenFree seconds must be >= 0, got {seconds!r}")
+        if not (math.isfinite(walk_in_mps) and walk_in_mps >= 0.0):
+            raise ValueError(f"SeenFree walk_in_mps must be >= 0, got {walk_in_mps!r}")
+        self._decay = walk_in_mps * dt_s  # metres of free space taken back per step of age
         self.every = every
         self._lo, self._hi = angle_min_rad, angle_max_rad
         self._rmin, self._rmax = range_min_m, range_max_m
         n = max(int(round(seconds / dt_s)) // every, 1)
-        self._scans: deque[tuple[FloatArray, Pose]] = deque(maxlen=n)
+        self._scans: deque[tuple[FloatArray, Pose, int]] = deque(maxlen=n)
         self._half = (half_depth_m, half_width_m)
-        self._poses: deque[tuple[float, float, float, float]] = deque(maxlen=max(int(round(seconds / dt_s)), 1))
+        self._poses: deque[tuple[float, float, float, float, float]] = deque(maxlen=max(int(round(seconds / dt_s)), 1))
         self._count = 0
 
     def reset(self) -> None:
@@ -139,7 +150,7 @@ class SeenFree:
         """Keep a scan (every `every`-th call): a beam without a return is free to the LRF's
         range, one below its minimum range shows nothing."""
         self._count += 1
-        self._poses.append((odom.x, odom.y, math.cos(odom.theta), math.sin(odom.theta)))
+        self._poses.append((odom.x, odom.y, math.cos(odom.theta), math.sin(odom.theta), self._count))
         if (self._count - 1) % self.every:
             return
         r = np.where(np.isfinite(ranges), ranges, self._rmax)
@@ -147,17 +158,20 @@ class SeenFree:
         # A beam's neighbours bound what lies between them: keep the nearest of the three.
         near = np.minimum(r, np.minimum(np.roll(r, 1), np.roll(r, -1)))
         near[0], near[-1] = min(r[0], r[1]), min(r[-1], r[-2])
-        self._scans.append((near, odom))
+        self._scans.append((near, odom, self._count))
 
-    def free(self, points: FloatArray, odom: Pose) -> FloatArray:
-        """For robot-frame points of the robot at `odom`: whether a kept scan saw each free."""
+    def free(self, points: FloatArray, odom: Pose, aged: bool = True) -> FloatArray:
+        """For robot-frame points of the robot at `odom`: whether a kept scan saw each free
+        (`aged`: with what a walking person may have taken back since, see `walk_in_mps`)."""
+        decay = self._decay if aged else 0.0
         out = np.zeros(len(points), dtype=bool)
         if not self._scans:
             return out
         c, s = math.cos(odom.theta), math.sin(odom.theta)
         wx = odom.x + c * points[:, 0] - s * points[:, 1]
         wy = odom.y + s * points[:, 0] + c * points[:, 1]
-        for ranges, at in self._scans:
+        for ranges, at, count in self._scans:
+            taken = decay * (self._count - count)
             dx, dy = wx - at.x, wy - at.y
             bearing = np.arctan2(dy, dx) - at.theta
             bearing = (bearing + math.pi) % (2.0 * math.pi) - math.pi
@@ -165,12 +179,13 @@ class SeenFree:
             k = np.rint((bearing - self._lo) / (self._hi - self._lo) * (n - 1)).astype(np.int64)
             inside = (k >= 0) & (k < n)
             k = np.clip(k, 0, n - 1)
-            out |= inside & (np.hypot(dx, dy) + SEEN_FREE_SLACK_M < ranges[k])
+            out |= inside & (np.hypot(dx, dy) + SEEN_FREE_SLACK_M + taken < ranges[k])
         if self._poses and not out.all():
-            p = np.array(self._poses)  # x, y, cos, sin per kept pose
+            p = np.array(self._poses)  # x, y, cos, sin, count per kept pose
+            taken = decay * (self._count - p[:, 4])
             dx, dy = wx[:, None] - p[:, 0], wy[:, None] - p[:, 1]
             along, across = p[:, 2] * dx + p[:, 3] * dy, -p[:, 3] * dx + p[:, 2] * dy
-            out |= ((np.abs(along) < self._half[0]) & (np.abs(across) < self._half[1])).any(axis=1)
+            out |= ((np.abs(along) < self._half[0] - taken) & (np.abs(across) < self._half[1] - taken)).any(axis=1)
         return out
 
 
@@ -182,6 +197,9 @@ SEEN_FREE_SLACK_M = 0.05
 # footprint (`blind_translation`) by this much: the linear prediction's own error, and the sliver
 # a translation at the view's edge sweeps [m].
 _RING_SLACK_M = 0.02
+
+# How far behind the footprint's rear edge (beyond the slack above) `behind_seen_free` looks [m].
+_BEHIND_M = 0.05
 
 
 def blind_turn(
@@ -224,6 +242,7 @@ def blind_translation(
     angle_min_rad: float,
     angle_max_rad: float,
     seen_free: Callable[[FloatArray], FloatArray] | None = None,
+    may_back: bool = True,
 ) -> tuple[float, float]:
     """The command's translation, cut (to 1/2, 1/4, 0) until no rear part of the footprint
     moves out of the footprint into the LRF's blind sector within the filter's horizon, unless
@@ -233,6 +252,10 @@ def blind_translation(
     direction of travel is in view, but the rear corner leads and sweeps space behind the view.
     A person who walked up behind a robot that stood still is there and was never seen. The
     turn is left to `blind_turn`.
+
+    With `may_back` false, any backward part is dropped first (the caller decides, e.g. with
+    `behind_seen_free`): a slow creep backwards stays within the prediction's slack at every
+    step but, kept up, closes on a person standing just behind.
     """
     vx, vy, _ = command
     if vx == 0.0 and vy == 0.0:
@@ -243,10 +266,26 @@ def blind_translation(
         return (np.abs(x) > hd) | (np.abs(y) > hw)
 
     view = (angle_min_rad, angle_max_rad)
+    if vx < 0.0 and not may_back:
+        vx = 0.0  # backing, however slowly, into what no recent scan saw free
     for scale in (1.0, 0.5, 0.25):
         if not _rear_enters_unseen((vx * scale, vy * scale, 0.0), cfg, outside, view, seen_free):
             return vx * scale, vy * scale
     return 0.0, 0.0
+
+
+def behind_seen_free(cfg: MotionConfig, seen_free: Callable[[FloatArray], FloatArray] | None) -> bool:
+    """Whether `seen_free` vouches for the strip just behind the footprint's rear edge.
+
+    A slow backward drift stays within the slack of any one step's prediction, and a person who
+    walked up behind stands just there (a paused mover keeps its pause radius, so it is the robot
+    that closes the gap)."""
+    if seen_free is None:
+        return False
+    hd, hw = cfg.half_depth, cfg.half_width
+    x = -hd - _RING_SLACK_M - _BEHIND_M
+    strip = np.array([[x, -hw], [x, -0.5 * hw], [x, 0.0], [x, 0.5 * hw], [x, hw]])
+    return bool(seen_free(strip).all())
 
 
 def _rear_enters_unseen(

@@ -15,7 +15,7 @@ from pico_gym.agents.classic.hospital import State
 from pico_gym.agents.classic.potential_field import MotionConfig
 from pico_gym.agents.hybrid import HybridAgent, HybridConfig, waypoint_along
 from pico_gym.agents.mlp import MlpActor
-from pico_gym.agents.shield import SeenFree, blind_translation, blind_turn
+from pico_gym.agents.shield import SeenFree, behind_seen_free, blind_translation, blind_turn
 from pico_gym.train.hybrid import HybridTraining
 from pico_gym.types import Pose
 from pico_gym.wrappers import LearningConfig, LearningEncoder
@@ -208,6 +208,39 @@ def test_a_translation_is_cut_when_the_leading_rear_corner_would_enter_unseen_sp
     assert blind_translation((-0.12, -0.43, 0.0), MOTION, lo, hi, seen_free=free) == (-0.12, -0.43)
 
 
+def test_without_may_back_a_backward_creep_is_dropped_and_the_rest_kept() -> None:
+    """A creep backwards stays within one step's prediction slack but, kept up for seconds, backs
+    the robot into a person standing (paused) just behind it (dev busy 2019 9022, 9135, 9165):
+    with `may_back` false its backward part is dropped and the sideways part kept."""
+    lo, hi = -2.0, 2.0
+    assert blind_translation((-0.05, 0.0, 0.0), MOTION, lo, hi, may_back=False) == (0.0, 0.0)
+    assert blind_translation((-0.03, 0.01, 0.0), MOTION, lo, hi, may_back=False) == (0.0, 0.01)
+    assert blind_translation((0.3, 0.1, 0.0), MOTION, lo, hi, may_back=False) == (0.3, 0.1)
+    free = lambda p: np.ones(len(p), bool)  # noqa: E731
+    assert behind_seen_free(MOTION, free)
+    assert not behind_seen_free(MOTION, lambda p: p[:, 1] > 0.0)  # half the strip unseen
+    assert not behind_seen_free(MOTION, None)
+
+
+def test_walk_in_lets_the_policy_back_only_within_its_budget(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """With `walk_in_mps`, a policy that backs into a strip nothing saw is let back
+    `back_budget_m`, then only sideways; without it (the default), backing is left alone."""
+    env = gym.make("PicoHospital-v0", **QUIET)
+    dt = env.unwrapped.config.dt_s
+    for walk_in, budget, expected_back in ((0.5, 0.1, 0.1), (0.0, 0.1, None)):
+        agent = _agent_in(State.NAVIGATE, env, tmp_path, HybridConfig(walk_in_mps=walk_in, back_budget_m=budget))
+        unseen = lambda p: np.zeros(len(p), bool)  # noqa: E731
+        backed = 0.0
+        for _ in range(40):
+            vx, vy = agent._translate((-0.05, 0.02, 0.0), unseen)
+            backed -= vx * dt
+            assert vy == pytest.approx(0.02)
+        assert backed == pytest.approx(expected_back if expected_back is not None else 40 * 0.05 * dt)
+    for bad in (-0.1, 11.0, True):
+        with pytest.raises(ValueError, match="back_budget_m"):
+            HybridConfig(back_budget_m=bad)  # type: ignore[arg-type]
+
+
 def test_seen_free_is_what_a_beam_passed_or_the_robot_stood_on() -> None:
     """A beam that ended at 2 m vouches for the points before it (not near its end, nor past
     it, nor outside the LRF's view); the footprint at a kept pose vouches for what it covered;
@@ -222,6 +255,24 @@ def test_seen_free_is_what_a_beam_passed_or_the_robot_stood_on() -> None:
     for _ in range(10):
         seen.add(np.zeros(1000), now)  # nothing returned below the minimum range: shows nothing
     assert seen.free(ahead, now).tolist() == [False, False, False, False, True, False, False]
+
+
+def test_seen_free_space_is_taken_back_at_a_walking_speed() -> None:
+    """With `walk_in_mps`, a beam's free stretch shortens and a kept pose's footprint shrinks by
+    that speed times their age: a person may have walked in since."""
+    seen = SeenFree(4.0, 0.1, -2.0, 2.0, 0.01, 10.0, 0.1, 0.2, every=1, walk_in_mps=0.5)
+    seen.add(np.full(1000, 2.0), Pose(0.0, 0.0, 0.0))
+    probe = np.array([[1.0, 0.0], [1.8, 0.0], [-0.05, 0.1]])  # the last behind the view
+    assert seen.free(probe, Pose(0.0, 0.0, 0.0)).tolist() == [True, True, True]
+    for _ in range(4):  # 0.4 s later, from a pose 1 m to the side (its own scans see nothing)
+        seen.add(np.zeros(1000), Pose(0.0, 1.0, 0.0))
+    # 0.2 m taken back: 1.8 m is no longer vouched for, nor the old footprint (0.1 m deep).
+    assert seen.free(probe, Pose(0.0, 0.0, 0.0)).tolist() == [True, False, False]
+    with pytest.raises(ValueError, match="walk_in_mps"):
+        SeenFree(4.0, 0.1, -2.0, 2.0, 0.01, 10.0, 0.1, 0.2, walk_in_mps=-1.0)
+    for bad in (-0.1, float("nan"), 6.0, True):
+        with pytest.raises(ValueError, match="walk_in_mps"):
+            HybridConfig(walk_in_mps=bad)  # type: ignore[arg-type]
 
 
 def _agent_in(state: State, env: gym.Env, tmp_path, hybrid: HybridConfig) -> HybridAgent:  # type: ignore[no-untyped-def]
