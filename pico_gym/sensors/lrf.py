@@ -606,7 +606,7 @@ class Lrf:
         x, y, th = pose[0], pose[1], pose[2]
         beams, cos, sin, rmax, out = self.beam_angles, self._cos, self._sin, cfg.range_max_m, self._ranges
         if isinstance(segments, SegmentGrid):
-            segments.cast(x, y, th, cos, sin, rmax, out)
+            _cast_grid(x, y, th, *segments.kernel_args, cos, sin, rmax, out)  # its `cast`, one call less
         else:
             _cast(x, y, th, segments, beams, cos, sin, rmax, out, True, _NO_FLAGS if one_sided is None else one_sided)
         if dynamic is not None and len(dynamic):

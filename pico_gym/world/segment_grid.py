@@ -176,8 +176,13 @@ def _cast_grid(
             j = min(ny - 1, max(0, int(math.floor((py + t_in * wy) / h))))
         step_i, t_next_x, dt_x = _axis(px, wx, i, h)
         step_j, t_next_y, dt_y = _axis(py, wy, j, h)
+        # Cells left along each axis before the beam leaves the grid; the cell index kept as one
+        # number (a step in y moves it by a row).
+        left_i = nx - 1 - i if step_i > 0 else i
+        left_j = ny - 1 - j if step_j > 0 else j
+        row_step = step_j * nx
+        cell = j * nx + i
         while True:
-            cell = j * nx + i
             for q in range(starts[cell], starts[cell + 1]):
                 ax = data[q, 0] - x
                 ay = data[q, 1] - y
@@ -190,26 +195,25 @@ def _cast_grid(
                 denom = wx * ey - wy * ex
                 if denom == 0.0:
                     continue
-                r = num / denom
+                inv = 1.0 / denom  # one division per test (the hit's range and its place on the segment)
+                r = num * inv
                 if r > 0.0 and r < best:
-                    u = (ax * wy - ay * wx) / denom
+                    u = (ax * wy - ay * wx) * inv
                     if -_ENDPOINT_TOL <= u <= 1.0 + _ENDPOINT_TOL:
                         best = r
             # Stop at the first cell boundary beyond the nearest hit (later cells are farther).
             if t_next_x < t_next_y:
-                if best <= t_next_x or t_next_x > t_out:
+                if best <= t_next_x or t_next_x > t_out or left_i == 0:
                     break
-                i += step_i
+                cell += step_i
+                left_i -= 1
                 t_next_x += dt_x
-                if i < 0 or i >= nx:
-                    break
             else:
-                if best <= t_next_y or t_next_y > t_out:
+                if best <= t_next_y or t_next_y > t_out or left_j == 0:
                     break
-                j += step_j
+                cell += row_step
+                left_j -= 1
                 t_next_y += dt_y
-                if j < 0 or j >= ny:
-                    break
         out[b] = best if best <= max_range else math.inf
 
 
