@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
@@ -331,3 +332,19 @@ def test_a_wedged_recovery_turns_where_the_safety_filter_lets_it(tmp_path) -> No
 def test_hybrid_config_refuses_a_bad_recover_turn() -> None:
     with pytest.raises(ValueError, match="recover_turn"):
         HybridConfig(recover_turn="yes")  # type: ignore[arg-type]
+
+
+def test_the_training_loop_and_its_evaluations_drive_with_the_configs_cuts(monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    import pico_gym.agents.hybrid as hybrid_module
+    from pico_gym.train.ppo import load_config, policy_agent
+
+    config = load_config(Path(__file__).parents[1] / "train" / "configs" / "ppo_hospital_hybrid_walkin.yaml")
+    assert config.hybrid_kwargs == {"lookahead_m": 1.0, "shield": True, "walk_in_mps": 0.5, "back_budget_m": 0.1}
+    env = gym.make("PicoHospital-v0", **QUIET)
+    wrapped = HybridTraining(env, **config.hybrid_kwargs)
+    assert wrapped.driver.hybrid == HybridConfig(walk_in_mps=0.5, back_budget_m=0.1)
+    with pytest.raises(ValueError, match="walk_in_mps"):
+        HybridTraining(env, walk_in_mps=-1.0)
+    # The periodic evaluations play the policy with the same cuts.
+    monkeypatch.setattr(hybrid_module, "HybridAgent", lambda spec, **kwargs: kwargs)
+    assert policy_agent(config, RobotSpec.of(env), model=None)["hybrid"] == wrapped.driver.hybrid

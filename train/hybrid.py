@@ -30,14 +30,23 @@ class HybridTraining(gym.Wrapper):
 
     Args:
         env: a PicoHospital-v0 env (arrival="dwell").
-        lookahead_m, shield: `HybridConfig`.
+        lookahead_m, shield, walk_in_mps, back_budget_m: `HybridConfig` (the cuts the policy
+            is trained with should be the ones it is deployed with).
     """
 
-    def __init__(self, env: gym.Env, lookahead_m: float = 1.0, shield: bool = True) -> None:
+    def __init__(
+        self,
+        env: gym.Env,
+        lookahead_m: float = 1.0,
+        shield: bool = True,
+        walk_in_mps: float = 0.0,
+        back_budget_m: float = 0.1,
+    ) -> None:
         if not hasattr(type(getattr(env.unwrapped, "task", None)), "next_target"):
             raise ValueError(f"HybridTraining needs PicoHospital-v0; got {type(env.unwrapped).__name__}")
         super().__init__(env)
-        self.driver = HybridAgent(RobotSpec.of(env), hybrid=HybridConfig(lookahead_m, shield), driver=True)
+        hybrid = HybridConfig(lookahead_m, shield, walk_in_mps=walk_in_mps, back_budget_m=back_budget_m)
+        self.driver = HybridAgent(RobotSpec.of(env), hybrid=hybrid, driver=True)
         spaces = dict(env.observation_space.spaces)  # type: ignore[attr-defined]
         low = np.array([0.0, -1.0, -1.0, -1.0, -1.0], np.float32)
         spaces["point_goal"] = gym.spaces.Box(low, np.ones(POINT_GOAL_SIZE, np.float32), dtype=np.float32)

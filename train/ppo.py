@@ -105,6 +105,15 @@ class TrainConfig:
                 return LearningConfig(**(kwargs or {}))
         raise ConfigError(f"{self.source}: env_wrapper must include pico_gym.wrappers.PicoLearningWrapper")
 
+    @property
+    def hybrid_kwargs(self) -> dict[str, Any]:
+        """The HybridTraining settings of the env_wrapper list (`HybridConfig` fields; {} if none)."""
+        for entry in self.zoo.get("env_wrapper") or []:
+            name, kwargs = _wrapper_entry(entry)
+            if name.endswith("HybridTraining"):
+                return dict(kwargs or {})
+        return {}
+
     def to_yaml(self, extra: dict[str, Any] | None = None) -> str:
         return yaml.safe_dump({self.env_id: self.zoo, PICO_KEY: self.pico, **(extra or {})}, sort_keys=False)
 
@@ -473,9 +482,11 @@ def _callbacks() -> Any:
 def policy_agent(config: TrainConfig, spec: RobotSpec, model: Any) -> Any:
     """The agent that plays a policy in memory the way the config trains it (`pico-gym.agent`)."""
     if config.pico["agent"] == "hybrid":
-        from pico_gym.agents.hybrid import HybridAgent
+        from pico_gym.agents.hybrid import HybridAgent, HybridConfig
 
-        return HybridAgent(spec, model=model, learning=config.learning)
+        # Evaluated with the cuts it is trained with.
+        hybrid = HybridConfig(**config.hybrid_kwargs)
+        return HybridAgent(spec, model=model, learning=config.learning, hybrid=hybrid)
     return PpoAgent(spec, model=model, learning=config.learning)
 
 
