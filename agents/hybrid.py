@@ -171,7 +171,8 @@ class HybridAgent(HospitalAgent):
         path: the policy (`.npz`, or an SB3 `.zip`); default: the shipped one.
         model: an SB3 model in memory instead (training's evaluations), with its `learning`.
         learning: the observation encoding `model` was trained with.
-        hybrid: the hybrid's own settings.
+        hybrid: the hybrid's own settings; default: those the policy's metadata names (its
+            training loop's backing cut, `walk_in_mps` and `back_budget_m`), else `HybridConfig()`.
         config: the classic part's settings.
         driver: no policy at all (the training wrapper drives NAVIGATE itself through `observe`,
             `policy_input` and `finish`; `act` then falls back to the classic command).
@@ -194,7 +195,7 @@ class HybridAgent(HospitalAgent):
         self.actor = None
         if not driver:
             from pico_gym.agents.mlp import export_actor
-            from pico_gym.agents.ppo import load_actor, observation_normalizer
+            from pico_gym.agents.ppo import load_actor, observation_normalizer, policy_metadata_path
 
             if model is not None:
                 if learning is None:
@@ -206,7 +207,14 @@ class HybridAgent(HospitalAgent):
                         "no hybrid policy is shipped yet; train one with train/configs/ppo_hospital_hybrid.yaml "
                         "and pass path=... (--policy)"
                     )
-                self.actor, learning, _ = load_actor(path or SHIPPED_HYBRID_POLICY)
+                source = path or SHIPPED_HYBRID_POLICY
+                self.actor, learning, meta = load_actor(source)
+                if hybrid is None and meta.get("hybrid"):  # the cuts the policy was trained with
+                    try:
+                        self.hybrid = HybridConfig(**meta["hybrid"])
+                    except (TypeError, ValueError) as exc:
+                        where = policy_metadata_path(source)
+                        raise ValueError(f"{where}: the metadata's 'hybrid' settings: {exc}") from None
         self.learning = learning or LearningConfig(n_sectors=64, frame_stack=2, memory_sectors=36, range_scale="log")
         if not self.learning.point_goal:
             self.learning = LearningConfig(**{**self.learning.to_dict(), "point_goal": True})

@@ -336,7 +336,7 @@ def test_hybrid_config_refuses_a_bad_recover_turn() -> None:
 
 def test_the_training_loop_and_its_evaluations_drive_with_the_configs_cuts(monkeypatch) -> None:  # type: ignore[no-untyped-def]
     import pico_gym.agents.hybrid as hybrid_module
-    from pico_gym.train.ppo import load_config, policy_agent
+    from pico_gym.train.ppo import goal_metadata, load_config, policy_agent
 
     config = load_config(Path(__file__).parents[1] / "train" / "configs" / "ppo_hospital_hybrid_walkin.yaml")
     assert config.hybrid_kwargs == {"lookahead_m": 1.0, "shield": True, "walk_in_mps": 0.5, "back_budget_m": 0.1}
@@ -345,6 +345,22 @@ def test_the_training_loop_and_its_evaluations_drive_with_the_configs_cuts(monke
     assert wrapped.driver.hybrid == HybridConfig(walk_in_mps=0.5, back_budget_m=0.1)
     with pytest.raises(ValueError, match="walk_in_mps"):
         HybridTraining(env, walk_in_mps=-1.0)
+    # A policy saved from this config carries the cuts into the agent that plays it.
+    assert goal_metadata(config) == {"hybrid": {"walk_in_mps": 0.5, "back_budget_m": 0.1}}
     # The periodic evaluations play the policy with the same cuts.
     monkeypatch.setattr(hybrid_module, "HybridAgent", lambda spec, **kwargs: kwargs)
     assert policy_agent(config, RobotSpec.of(env), model=None)["hybrid"] == wrapped.driver.hybrid
+
+
+def test_a_policy_file_names_the_cuts_its_agent_drives_with(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    env = gym.make("PicoHospital-v0", **QUIET)
+    path = _policy_file(tmp_path, env)
+    assert HybridAgent(RobotSpec.of(env), path=path).hybrid == HybridConfig()  # none named: the defaults
+    meta = {"algo": "ppo", "learning": LEARNING.to_dict(), "hybrid": {"walk_in_mps": 0.5}}
+    path.with_suffix(".json").write_text(json.dumps(meta))
+    assert HybridAgent(RobotSpec.of(env), path=path).hybrid.walk_in_mps == 0.5
+    given = HybridConfig(lookahead_m=2.0)  # an explicit config wins
+    assert HybridAgent(RobotSpec.of(env), path=path, hybrid=given).hybrid is given
+    path.with_suffix(".json").write_text(json.dumps({**meta, "hybrid": {"walk_in_mps": -1}}))
+    with pytest.raises(ValueError, match=r"hybrid\.json: the metadata's 'hybrid' settings: .*walk_in_mps"):
+        HybridAgent(RobotSpec.of(env), path=path)

@@ -80,6 +80,8 @@ VEC_ENVS = ("dummy", "subproc", "vector")
 # `policy: MirrorMlpPolicy`: the MLP policy with a mirror-symmetric actor (`pico_gym.train.mirror`).
 MIRROR_POLICY = "MirrorMlpPolicy"
 # Keys of the env block that are not PPO constructor arguments (rl-zoo3's meaning).
+# HybridTraining settings a saved hybrid policy carries into its agent (beyond the defaults).
+HYBRID_TRAINED_CUTS = ("walk_in_mps", "back_budget_m")
 ZOO_KEYS = {"n_envs", "n_timesteps", "policy", "env_wrapper", "policy_kwargs", "normalize", "frame_stack"}
 
 
@@ -308,8 +310,14 @@ def make_plain_env(config: TrainConfig, **kwargs: Any) -> gym.Env:
 
 def goal_metadata(config: TrainConfig) -> dict[str, Any]:
     """What a saved policy's metadata says about its point goal (`PpoAgent` reads it): for a
-    policy whose goal is the exit its own perception tracks, the `ExitGoal` arguments too."""
-    if not config.learning.point_goal or config.pico.get("agent") == "hybrid":
+    policy whose goal is the exit its own perception tracks, the `ExitGoal` arguments too; for a
+    hybrid policy, the backing cut of its training loop."""
+    if config.pico.get("agent") == "hybrid":
+        # The hybrid computes its own goal; what it carries is the cuts it was trained with (the
+        # agent drives with them: `HybridAgent` reads this).
+        cuts = {k: v for k, v in config.hybrid_kwargs.items() if k in HYBRID_TRAINED_CUTS}
+        return {"hybrid": cuts} if cuts else {}
+    if not config.learning.point_goal:
         return {}
     source = config.pico.get("point_goal_source", "privileged")
     if source != "exit":
