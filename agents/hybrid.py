@@ -92,11 +92,11 @@ class HybridConfig:
             at this speed (a walking person's: 0.5 m/s in the course's mover configs), or within
             `back_budget_m` of backing since it last did. The bumps into people on busy 2019 dev
             seeds were slow backward creeps (2-5 cm/s, each step within the shield's prediction
-            slack) into a person who had followed the robot and stood just behind it. Off by
-            default: it cut the dev bumps (2.0 % -> 0.7 %) but not the test seeds' (1.5 %
-            against 0.5 % without it), and the shipped policy, which backs along corridors, lost
-            a generated dev episode to it (README, "The hybrid hospital agent"). The classic
-            part's driving is not cut.
+            slack) into a person who had followed the robot and stood just behind it. 0 (off)
+            in `HybridConfig()`; the shipped policy was fine-tuned with 0.5 in its loop and its
+            metadata turns it on (a policy trained without it backs along corridors and lost
+            episodes to it: README, "The hybrid hospital agent"). The classic part's driving is
+            not cut.
         back_budget_m: see `walk_in_mps` [m].
     """
 

@@ -298,6 +298,16 @@ def _write_card(meta: dict[str, Any], config: dict[str, Any], rows: list[str], t
             if meta.get("shield")
             else []
         ),
+        *(
+            [
+                "- Drives with the backing cut it was trained with: `HybridConfig("
+                + ", ".join(f"{k}={v!r}" for k, v in meta["hybrid"].items())
+                + ")`, which this policy's metadata sets (`HybridAgent` reads it unless given a config); the "
+                "table is measured so."
+            ]
+            if meta.get("hybrid")
+            else []
+        ),
         "- Observation: `PicoLearningWrapper("
         + ", ".join(f"{k}={v!r}" for k, v in meta["learning"].items())
         + ")` (min-pooled LRF sectors, 360-degree range memory, odometry velocity, frame stack); "
