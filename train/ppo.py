@@ -79,9 +79,9 @@ POLICY_AGENTS = ("ppo", "hybrid")
 VEC_ENVS = ("dummy", "subproc", "vector")
 # `policy: MirrorMlpPolicy`: the MLP policy with a mirror-symmetric actor (`pico_gym.train.mirror`).
 MIRROR_POLICY = "MirrorMlpPolicy"
-# Keys of the env block that are not PPO constructor arguments (rl-zoo3's meaning).
 # HybridTraining settings a saved hybrid policy carries into its agent (beyond the defaults).
 HYBRID_TRAINED_CUTS = ("walk_in_mps", "back_budget_m")
+# Keys of the env block that are not PPO constructor arguments (rl-zoo3's meaning).
 ZOO_KEYS = {"n_envs", "n_timesteps", "policy", "env_wrapper", "policy_kwargs", "normalize", "frame_stack"}
 
 
