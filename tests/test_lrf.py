@@ -179,3 +179,27 @@ def test_lrf_ranges_writes_into_out_and_follows_beams_on_a_prebuilt_grid() -> No
     for bad in (np.empty(angles.size - 1), np.empty(angles.size, np.float32), np.empty((angles.size, 2))[:, 0]):
         with pytest.raises(ValueError, match="out must be"):
             lrf_ranges(pose, room, angles, out=bad)
+
+
+def test_lrf_ranges_takes_any_array_like_alike_and_names_bad_flags() -> None:
+    """The one-call path for small scenes takes float64 C arrays only; lists, float32, read-only
+    or strided arrays take the checked path and get the same ranges. Flags of the wrong length
+    are refused by name."""
+    room = square_segments(2.0)
+    pose = Pose(0.3, -0.2, 0.7)
+    angles = LrfConfig().beam_angles
+    reference = lrf_ranges(pose, room, angles)
+    lrf_ranges(pose, room, angles)  # the beams kept: the next calls may take the one-call path
+    read_only = room.copy()
+    read_only.flags.writeable = False
+    strided = np.concatenate([room, room], axis=1)[:, :4]
+    for scene in (room.tolist(), room.astype(np.float32), read_only, strided):
+        assert np.array_equal(lrf_ranges(pose, scene, angles), reference)
+    assert np.array_equal(lrf_ranges((0.3, -0.2, 0.7), room, angles.tolist()), reference)
+    for flags in (np.ones(3, bool), np.ones(5, bool)):
+        with pytest.raises(ValueError, match="one_sided must hold one flag per segment"):
+            lrf_ranges(pose, room, angles, one_sided=flags)
+    frozen = np.empty(angles.size)
+    frozen.flags.writeable = False
+    with pytest.raises(ValueError, match="out must be"):
+        lrf_ranges(pose, room, angles, out=frozen)

@@ -402,6 +402,48 @@ def _cast_known_beams(
     return True
 
 
+@njit
+def _small_scan(
+    x: float,
+    y: float,
+    theta: float,
+    segments: Segments,
+    beam_angles: FloatArray,
+    known: FloatArray,
+    beam_cos: FloatArray,
+    beam_sin: FloatArray,
+    max_range: float,
+    out: FloatArray,
+    one_sided: np.ndarray,
+) -> bool:
+    """`lrf_ranges` on a small scene in one call, every check its own Python path makes included:
+    (N, 4) segments below `GRID_MIN_SEGMENTS`, no flags or one a segment, beams equal to `known`
+    and as many as `out` has. False, without casting, when any does not hold (that path then
+    decides, and names what is wrong)."""
+    n = segments.shape[0]
+    if segments.shape[1] != 4 or n >= GRID_MIN_SEGMENTS or one_sided.shape[0] not in (0, n):
+        return False
+    if out.shape[0] != beam_angles.shape[0]:
+        return False
+    return _cast_known_beams(x, y, theta, segments, beam_angles, known, beam_cos, beam_sin, max_range, out, one_sided)
+
+
+# `_small_scan` takes these types only (`_fast_small_scan` compiles it once, then no more): any
+# other argument, a float32 or read-only or strided array, a list, raises TypeError in numba's
+# dispatcher before anything runs, and `lrf_ranges` takes its checked path.
+_SMALL_SCAN_TYPES = "(f8, f8, f8, f8[:, ::1], f8[::1], f8[::1], f8[::1], f8[::1], f8, f8[::1], b1[::1])"
+_small_scan_ready = False
+
+
+def _fast_small_scan() -> Any:
+    global _small_scan_ready
+    if not _small_scan_ready:
+        _small_scan.compile(_SMALL_SCAN_TYPES)
+        _small_scan.disable_compile()
+        _small_scan_ready = True
+    return _small_scan
+
+
 _GRIDS = _Recent(4)  # (segments, one-sided flags) -> SegmentGrid
 
 
@@ -492,8 +534,9 @@ def lrf_ranges(
         nothing within max_range.
 
     Raises:
-        ValueError: when the beam angles are not in ascending order, or `out` is not a
-            contiguous float64 array of one element per beam.
+        ValueError: when the beam angles are not in ascending order, `one_sided` does not hold
+            one flag per segment, or `out` is not a contiguous float64 array of one element per
+            beam.
 
     The beams' directions and, for `GRID_MIN_SEGMENTS` segments or more, the grid are kept for the
     next calls with equal arrays (equal by content, checked every call: an array may have changed in
@@ -504,6 +547,18 @@ def lrf_ranges(
     >>> lrf_ranges(Pose(0.0, 0.0, 0.0), square, np.array([0.0, math.pi / 4])).round(6).tolist()
     [1.0, 1.414214]
     """
+    if _BEAMS.entries and type(segments) is np.ndarray:
+        # A loop over poses of a small scene with the last call's beams: one compiled call whose
+        # argument types numba's dispatcher checks (anything else: TypeError, the path below).
+        (known,), (cos, sin) = _BEAMS.entries[0]
+        buffer = np.empty(known.shape[0]) if out is None else out
+        flags = _NO_FLAGS if one_sided is None else one_sided
+        scan = _fast_small_scan()
+        try:
+            if scan(pose[0], pose[1], pose[2], segments, beam_angles, known, cos, sin, max_range, buffer, flags):
+                return buffer
+        except TypeError:
+            pass
     if not (type(beam_angles) is np.ndarray and beam_angles.dtype.char == "d" and beam_angles.ndim == 1):
         beam_angles = np.ascontiguousarray(beam_angles, dtype=np.float64).reshape(-1)
     if out is None:
@@ -539,7 +594,9 @@ def lrf_ranges(
         if segments.size % 4:
             raise ValueError(f"segments must be (N, 4) rows (x1, y1, x2, y2), got shape {segments.shape}")
         segments = segments.reshape(-1, 4)
-    flags = _NO_FLAGS if one_sided is None else np.ascontiguousarray(one_sided, dtype=np.bool_)
+    flags = _NO_FLAGS if one_sided is None else np.ascontiguousarray(one_sided, dtype=np.bool_).reshape(-1)
+    if flags.size not in (0, len(segments)):
+        raise ValueError(f"one_sided must hold one flag per segment ({len(segments)}), got {flags.size}")
     if len(segments) < GRID_MIN_SEGMENTS:
         # The beams are those of the last call (checked in the kernel): one compiled call.
         (known,), (cos, sin) = _BEAMS.entries[0] if _BEAMS.entries else ((_NO_ANGLES,), (_NO_ANGLES, _NO_ANGLES))
