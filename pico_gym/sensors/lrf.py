@@ -547,7 +547,7 @@ def lrf_ranges(
     >>> lrf_ranges(Pose(0.0, 0.0, 0.0), square, np.array([0.0, math.pi / 4])).round(6).tolist()
     [1.0, 1.414214]
     """
-    if _BEAMS.entries and type(segments) is np.ndarray:
+    if _BEAMS.entries and type(segments) is np.ndarray and segments.size < 4 * GRID_MIN_SEGMENTS:
         # A loop over poses of a small scene with the last call's beams: one compiled call whose
         # argument types numba's dispatcher checks (anything else: TypeError, the path below).
         (known,), (cos, sin) = _BEAMS.entries[0]
