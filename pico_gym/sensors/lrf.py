@@ -394,43 +394,24 @@ def _cast_known_beams(
     one_sided: np.ndarray,
 ) -> bool:
     """`lrf_ranges`' small-scene cast in one call when `beam_angles` equal `known` (whose cos and
-    sin are given); False, without casting, when they differ."""
-    if not _equal(beam_angles, known):
+    sin are given) and the arrays fit: (N, 4) segments below `GRID_MIN_SEGMENTS`, no flags or one
+    a segment, one element of `out` a beam. False, without casting, when any does not hold (the
+    caller's checked path then decides, and names what is wrong)."""
+    n = segments.shape[0]
+    if segments.shape[1] != 4 or n >= GRID_MIN_SEGMENTS or one_sided.shape[0] not in (0, n):
+        return False
+    if out.shape[0] != beam_angles.shape[0] or not _equal(beam_angles, known):
         return False
     _cast(x, y, theta, segments, beam_angles, beam_cos, beam_sin, max_range, out, True, one_sided)
     _no_hit_to_inf(out, max_range)
     return True
 
 
-@njit
-def _small_scan(
-    x: float,
-    y: float,
-    theta: float,
-    segments: Segments,
-    beam_angles: FloatArray,
-    known: FloatArray,
-    beam_cos: FloatArray,
-    beam_sin: FloatArray,
-    max_range: float,
-    out: FloatArray,
-    one_sided: np.ndarray,
-) -> bool:
-    """`lrf_ranges` on a small scene in one call, every check its own Python path makes included:
-    (N, 4) segments below `GRID_MIN_SEGMENTS`, no flags or one a segment, beams equal to `known`
-    and as many as `out` has. False, without casting, when any does not hold (that path then
-    decides, and names what is wrong)."""
-    n = segments.shape[0]
-    if segments.shape[1] != 4 or n >= GRID_MIN_SEGMENTS or one_sided.shape[0] not in (0, n):
-        return False
-    if out.shape[0] != beam_angles.shape[0]:
-        return False
-    return _cast_known_beams(x, y, theta, segments, beam_angles, known, beam_cos, beam_sin, max_range, out, one_sided)
-
-
-# `_small_scan` takes these types only (`_fast_small_scan` compiles it once, then no more): any
-# other argument, a float32 or read-only or strided array, a list, raises TypeError in numba's
+# `_cast_known_beams` once more, as `lrf_ranges`' first try with the caller's arrays as they come:
+# it takes these types only (`_fast_small_scan` compiles it once, then no more), so any other
+# argument, a float32 or read-only or strided array, a list, raises TypeError in numba's
 # dispatcher before anything runs, and `lrf_ranges` takes its checked path.
+_small_scan = njit(_cast_known_beams.py_func)
 _SMALL_SCAN_TYPES = "(f8, f8, f8, f8[:, ::1], f8[::1], f8[::1], f8[::1], f8[::1], f8, f8[::1], b1[::1])"
 _small_scan_ready = False
 
