@@ -19,6 +19,7 @@ import numpy as np
 
 from pico_gym.agents.base import RobotSpec
 from pico_gym.agents.classic.potential_field import MotionConfig, motion_for, safe_turn, safety_filter
+from pico_gym.jit import njit
 from pico_gym.types import FloatArray, Pose
 
 # Points farther than this from the robot cannot matter to the filter within its horizon [m].
@@ -66,10 +67,12 @@ class ScanMemory:
             raise ValueError(f"ScanMemory seconds must be >= 0, got {seconds!r}")
         self.steps = int(round(seconds / dt_s))
         self.stride = stride
-        self._scans: deque[FloatArray] = deque(maxlen=max(self.steps, 1))
+        self._sizes: deque[int] = deque()  # points of each kept scan, oldest first ...
+        self._points = np.zeros((0, 2))  # ... and all of them, joined in that order
 
     def reset(self) -> None:
-        self._scans.clear()
+        self._sizes.clear()
+        self._points = np.zeros((0, 2))
 
     def add(self, points: FloatArray, odom: Pose) -> None:
         """Keep a scan's robot-frame end points (those within `REACH_M`), taken at `odom`."""
@@ -78,15 +81,16 @@ class ScanMemory:
         pts = points[:: self.stride]
         pts = pts[np.hypot(pts[:, 0], pts[:, 1]) < REACH_M]
         c, s = math.cos(odom.theta), math.sin(odom.theta)
-        self._scans.append(
-            np.column_stack([odom.x + c * pts[:, 0] - s * pts[:, 1], odom.y + s * pts[:, 0] + c * pts[:, 1]])
-        )
+        kept = np.column_stack([odom.x + c * pts[:, 0] - s * pts[:, 1], odom.y + s * pts[:, 0] + c * pts[:, 1]])
+        drop = self._sizes.popleft() if len(self._sizes) == self.steps else 0
+        self._points = np.concatenate([self._points[drop:], kept])
+        self._sizes.append(len(kept))
 
     def recent(self, odom: Pose) -> FloatArray:
         """The kept points within `REACH_M` (a square) of the robot at `odom`, robot frame."""
-        if not self._scans:
+        if not self._sizes:
             return np.zeros((0, 2))
-        d = np.vstack(self._scans) - np.array([odom.x, odom.y])
+        d = self._points - np.array([odom.x, odom.y])
         d = d[(np.abs(d[:, 0]) < REACH_M) & (np.abs(d[:, 1]) < REACH_M)]
         c, s = math.cos(odom.theta), math.sin(odom.theta)
         return np.column_stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]])
@@ -135,22 +139,26 @@ class SeenFree:
         self.every = every
         self._lo, self._hi = angle_min_rad, angle_max_rad
         self._rmin, self._rmax = range_min_m, range_max_m
-        n = max(int(round(seconds / dt_s)) // every, 1)
-        self._scans: deque[tuple[FloatArray, Pose, int]] = deque(maxlen=n)
         self._half = (half_depth_m, half_width_m)
-        self._poses: deque[tuple[float, float, float, float, float]] = deque(maxlen=max(int(round(seconds / dt_s)), 1))
+        # Ring buffers, oldest overwritten: the kept scans (the beams' free stretches, and the
+        # pose x, y, theta and step count each was taken at) and the poses (x, y, cos, sin, count).
+        self._n_scans = max(int(round(seconds / dt_s)) // every, 1)
+        self._n_poses = max(int(round(seconds / dt_s)), 1)
+        self._ranges = np.zeros((self._n_scans, 0))
+        self._at = np.zeros((self._n_scans, 4))
+        self._poses = np.zeros((self._n_poses, 5))
         self._count = 0
 
     def reset(self) -> None:
-        self._scans.clear()
-        self._poses.clear()
         self._count = 0
 
     def add(self, ranges: FloatArray, odom: Pose) -> None:
         """Keep a scan (every `every`-th call): a beam without a return is free to the LRF's
         range, one below its minimum range shows nothing."""
         self._count += 1
-        self._poses.append((odom.x, odom.y, math.cos(odom.theta), math.sin(odom.theta), self._count))
+        self._poses[(self._count - 1) % self._n_poses] = (
+            odom.x, odom.y, math.cos(odom.theta), math.sin(odom.theta), self._count,
+        )  # fmt: skip
         if (self._count - 1) % self.every:
             return
         r = np.where(np.isfinite(ranges), ranges, self._rmax)
@@ -158,35 +166,69 @@ class SeenFree:
         # A beam's neighbours bound what lies between them: keep the nearest of the three.
         near = np.minimum(r, np.minimum(np.roll(r, 1), np.roll(r, -1)))
         near[0], near[-1] = min(r[0], r[1]), min(r[-1], r[-2])
-        self._scans.append((near, odom, self._count))
+        if self._ranges.shape[1] != len(near):
+            self._ranges = np.zeros((self._n_scans, len(near)))
+        slot = ((self._count - 1) // self.every) % self._n_scans
+        self._ranges[slot] = near
+        self._at[slot] = (odom.x, odom.y, odom.theta, self._count)
 
     def free(self, points: FloatArray, odom: Pose, aged: bool = True) -> FloatArray:
         """For robot-frame points of the robot at `odom`: whether a kept scan saw each free
         (`aged`: with what a walking person may have taken back since, see `walk_in_mps`)."""
-        decay = self._decay if aged else 0.0
         out = np.zeros(len(points), dtype=bool)
-        if not self._scans:
+        if self._count == 0:
             return out
         c, s = math.cos(odom.theta), math.sin(odom.theta)
         wx = odom.x + c * points[:, 0] - s * points[:, 1]
         wy = odom.y + s * points[:, 0] + c * points[:, 1]
-        for ranges, at, count in self._scans:
-            taken = decay * (self._count - count)
-            dx, dy = wx - at.x, wy - at.y
-            bearing = np.arctan2(dy, dx) - at.theta
-            bearing = (bearing + math.pi) % (2.0 * math.pi) - math.pi
-            n = len(ranges)
-            k = np.rint((bearing - self._lo) / (self._hi - self._lo) * (n - 1)).astype(np.int64)
-            inside = (k >= 0) & (k < n)
-            k = np.clip(k, 0, n - 1)
-            out |= inside & (np.hypot(dx, dy) + SEEN_FREE_SLACK_M + taken < ranges[k])
-        if self._poses and not out.all():
-            p = np.array(self._poses)  # x, y, cos, sin, count per kept pose
-            taken = decay * (self._count - p[:, 4])
-            dx, dy = wx[:, None] - p[:, 0], wy[:, None] - p[:, 1]
-            along, across = p[:, 2] * dx + p[:, 3] * dy, -p[:, 3] * dx + p[:, 2] * dy
-            out |= ((np.abs(along) < self._half[0] - taken) & (np.abs(across) < self._half[1] - taken)).any(axis=1)
+        _seen_free(
+            np.ascontiguousarray(wx), np.ascontiguousarray(wy), self._ranges, self._at,
+            min((self._count - 1) // self.every + 1, self._n_scans), self._poses, min(self._count, self._n_poses),
+            self._lo, self._hi, self._half[0], self._half[1], self._decay if aged else 0.0, self._count, out,
+        )  # fmt: skip
         return out
+
+
+@njit
+def _seen_free(
+    wx: FloatArray,
+    wy: FloatArray,
+    ranges: FloatArray,
+    at: FloatArray,
+    n_scans: int,
+    poses: FloatArray,
+    n_poses: int,
+    lo: float,
+    hi: float,
+    half_depth: float,
+    half_width: float,
+    decay: float,
+    now: int,
+    out: np.ndarray,
+) -> None:
+    """`SeenFree.free`'s test of the map-frame points (wx, wy) against the first `n_scans` kept
+    scans and `n_poses` kept poses; sets `out` where one vouches."""
+    n = ranges.shape[1]
+    for j in range(n_scans):
+        x0, y0, theta, taken = at[j, 0], at[j, 1], at[j, 2], decay * (now - at[j, 3])
+        for i in range(wx.shape[0]):
+            if out[i]:
+                continue
+            dx, dy = wx[i] - x0, wy[i] - y0
+            bearing = math.atan2(dy, dx) - theta
+            bearing = (bearing + math.pi) % (2.0 * math.pi) - math.pi
+            k = np.rint((bearing - lo) / (hi - lo) * (n - 1))
+            if 0 <= k < n and math.hypot(dx, dy) + SEEN_FREE_SLACK_M + taken < ranges[j, int(k)]:
+                out[i] = True
+    for j in range(n_poses):
+        x0, y0, c, s, taken = poses[j, 0], poses[j, 1], poses[j, 2], poses[j, 3], decay * (now - poses[j, 4])
+        for i in range(wx.shape[0]):
+            if out[i]:
+                continue
+            dx, dy = wx[i] - x0, wy[i] - y0
+            along, across = c * dx + s * dy, -s * dx + c * dy
+            if abs(along) < half_depth - taken and abs(across) < half_width - taken:
+                out[i] = True
 
 
 # A point is seen free when a beam through it ended at least this much beyond it [m].

@@ -16,7 +16,7 @@ from pico_gym.agents.classic.hospital import State
 from pico_gym.agents.classic.potential_field import MotionConfig
 from pico_gym.agents.hybrid import HybridAgent, HybridConfig, waypoint_along
 from pico_gym.agents.mlp import MlpActor
-from pico_gym.agents.shield import SeenFree, behind_seen_free, blind_translation, blind_turn
+from pico_gym.agents.shield import ScanMemory, SeenFree, behind_seen_free, blind_translation, blind_turn
 from pico_gym.train.hybrid import HybridTraining
 from pico_gym.types import Pose
 from pico_gym.wrappers import LearningConfig, LearningEncoder
@@ -274,6 +274,73 @@ def test_seen_free_space_is_taken_back_at_a_walking_speed() -> None:
     for bad in (-0.1, float("nan"), 6.0, True):
         with pytest.raises(ValueError, match="walk_in_mps"):
             HybridConfig(walk_in_mps=bad)  # type: ignore[arg-type]
+
+
+def _seen_free_scan_by_scan(
+    scans: list[tuple[np.ndarray, Pose, int]],
+    poses: list[tuple[Pose, int]],
+    points: np.ndarray,
+    odom: Pose,
+    now: int,
+    decay: float,
+) -> np.ndarray:
+    """`SeenFree.free` as a loop over the kept scans and poses (view -2..2 rad, footprint 0.1 x 0.2)."""
+    out = np.zeros(len(points), dtype=bool)
+    c, s = np.cos(odom.theta), np.sin(odom.theta)
+    wx, wy = odom.x + c * points[:, 0] - s * points[:, 1], odom.y + s * points[:, 0] + c * points[:, 1]
+    for ranges, at, count in scans:
+        dx, dy = wx - at.x, wy - at.y
+        bearing = (np.arctan2(dy, dx) - at.theta + np.pi) % (2.0 * np.pi) - np.pi
+        k = np.rint((bearing + 2.0) / 4.0 * (len(ranges) - 1)).astype(np.int64)
+        inside = (k >= 0) & (k < len(ranges))
+        out |= inside & (np.hypot(dx, dy) + 0.05 + decay * (now - count) < ranges[np.clip(k, 0, len(ranges) - 1)])
+    for at, count in poses:
+        dx, dy = wx - at.x, wy - at.y
+        along, across = np.cos(at.theta) * dx + np.sin(at.theta) * dy, -np.sin(at.theta) * dx + np.cos(at.theta) * dy
+        taken = decay * (now - count)
+        out |= (np.abs(along) < 0.1 - taken) & (np.abs(across) < 0.2 - taken)
+    return out
+
+
+def test_seen_free_keeps_the_last_seconds_of_scans_and_poses() -> None:
+    """Random walks with random scans: what `SeenFree` vouches for is what the kept scans (every
+    second one, the last 2 s) and poses (the last 4 s) vouch for, aged or not."""
+    rng = np.random.default_rng(1)
+    for walk in range(4):
+        seen = SeenFree(0.4, 0.1, -2.0, 2.0, 0.01, 3.0, 0.1, 0.2, every=2, walk_in_mps=0.3)
+        scans, poses, odom = [], [], Pose(0.0, 0.0, 0.0)
+        for count in range(1, 30):
+            odom = Pose(odom.x + rng.normal(0, 0.05), odom.y + rng.normal(0, 0.05), odom.theta + rng.normal(0, 0.3))
+            ranges = rng.uniform(0.0, 4.0, 50)
+            ranges[rng.random(50) < 0.1] = np.inf
+            seen.add(ranges, odom)
+            poses = [*poses, (odom, count)][-4:]
+            if (count - 1) % 2 == 0:
+                r = np.where(np.isfinite(ranges), ranges, 3.0)
+                r = np.where(r < 0.01, 0.0, np.minimum(r, 3.0))
+                near = np.minimum(r, np.minimum(np.roll(r, 1), np.roll(r, -1)))
+                near[0], near[-1] = min(r[0], r[1]), min(r[-1], r[-2])
+                scans = [*scans, (near, odom, count)][-2:]
+            points = rng.uniform(-1.0, 1.0, (40, 2))
+            for aged in (False, True):
+                expected = _seen_free_scan_by_scan(scans, poses, points, odom, count, 0.03 if aged else 0.0)
+                assert seen.free(points, odom, aged=aged).tolist() == expected.tolist(), (walk, count, aged)
+        seen.reset()
+        assert not seen.free(points, odom).any()
+
+
+def test_the_scan_memory_hands_back_the_last_seconds_of_near_points_oldest_first() -> None:
+    memory = ScanMemory(0.3, 0.1, stride=1)  # three scans
+    rng = np.random.default_rng(2)
+    kept = []
+    for _ in range(7):
+        points = rng.uniform(-2.0, 2.0, (int(rng.integers(0, 30)), 2))
+        memory.add(points, Pose(0.0, 0.0, 0.0))
+        kept = [*kept, points[np.hypot(points[:, 0], points[:, 1]) < 1.2]][-3:]
+        joined = np.vstack(kept)
+        assert np.array_equal(memory.recent(Pose(0.0, 0.0, 0.0)), joined[(np.abs(joined) < 1.2).all(axis=1)])
+    memory.reset()
+    assert memory.recent(Pose(0.0, 0.0, 0.0)).shape == (0, 2)
 
 
 def _agent_in(state: State, env: gym.Env, tmp_path, hybrid: HybridConfig) -> HybridAgent:  # type: ignore[no-untyped-def]

@@ -98,3 +98,28 @@ def test_the_safety_floor_stops_a_slow_creep_into_a_wall() -> None:
     loose = MotionConfig(margin=0.04, slack=0.01)
     assert creep(loose) < 0.01  # the creep: into the 1 cm contact skin
     assert creep(MotionConfig(margin=0.04, slack=0.01, floor=0.035)) >= 0.035 - 1e-9
+
+
+def _clusters_one_by_one(points: np.ndarray, keep: np.ndarray, gap_m: float, min_points: int) -> list[list[int]]:
+    """The runs, grown point by point (what `clusters_in_order` computes array-wise)."""
+    out: list[list[int]] = []
+    run: list[int] = []
+    for i in range(len(points)):
+        if not keep[i] or (run and float(np.hypot(*(points[i] - points[run[-1]]))) > gap_m):
+            out += [run] if len(run) >= min_points else []
+            run = []
+        if keep[i]:
+            run.append(i)
+    return out + ([run] if len(run) >= min_points else [])
+
+
+def test_clusters_are_the_runs_grown_point_by_point() -> None:
+    rng = np.random.default_rng(0)
+    for _ in range(500):
+        n = int(rng.integers(0, 40))
+        pts = np.cumsum(rng.normal(0.0, 0.15, size=(n, 2)), axis=0)
+        keep = rng.random(n) < rng.random()
+        min_points = int(rng.integers(1, 4))
+        got = clusters_in_order(pts, keep, 0.2, min_points)
+        assert [c.index.tolist() for c in got] == _clusters_one_by_one(pts, keep, 0.2, min_points)
+        assert all(np.array_equal(c.points, pts[c.index]) for c in got)

@@ -808,9 +808,10 @@ class HospitalAgent(Agent):
         return out
 
     def _cell(self, p: FloatArray) -> tuple[int, int]:
+        """The grid cell (row, column) of a map-frame point, clamped to the grid."""
         g = self.grid
-        r = int(np.clip((p[1] - g.y0) / g.resolution, 0, g.shape[0] - 1))
-        c = int(np.clip((p[0] - g.x0) / g.resolution, 0, g.shape[1] - 1))
+        r = int(min(max((p[1] - g.y0) / g.resolution, 0.0), g.shape[0] - 1))  # (np.clip: ten times slower)
+        c = int(min(max((p[0] - g.x0) / g.resolution, 0.0), g.shape[1] - 1))
         return r, c
 
     def _centre(self, cell: tuple[int, int]) -> FloatArray:
@@ -1158,10 +1159,11 @@ class HospitalAgent(Agent):
         """Whether the robot's centre can go straight from a to b: the map's walls keep the
         robot's half depth off the way (a spot behind a wall is near but not reachable)."""
         n = max(2, int(np.linalg.norm(b - a) / 0.05))
-        for t in np.linspace(0.0, 1.0, n)[1:]:
-            if self.map_clearance[self._cell(a + t * (b - a))] < 0.1:
-                return False
-        return True
+        g = self.grid
+        way = a + np.linspace(0.0, 1.0, n)[1:, None] * (b - a)
+        rows = np.clip((way[:, 1] - g.y0) / g.resolution, 0, g.shape[0] - 1).astype(np.int64)  # as `_cell`
+        cols = np.clip((way[:, 0] - g.x0) / g.resolution, 0, g.shape[1] - 1).astype(np.int64)
+        return not bool((self.map_clearance[rows, cols] < 0.1).any())
 
     def _unexplained_near(self, within_m: float = 1.5) -> FloatArray:
         """Robot-frame points within `within_m` of the last scan that the map does not explain."""

@@ -169,16 +169,35 @@ class LocaliserConfig:
     unique_margin: float = 10.0
 
 
+# (number of ranges, beams) -> (the angles, which beams, their cos and sin): agents call
+# `scan_points` a few times a step with the same angles.
+_GEOMETRY: dict[tuple[int, int], tuple[FloatArray, np.ndarray, FloatArray, FloatArray]] = {}
+
+
+def _beam_geometry(angles: FloatArray, n: int, beams: int) -> tuple[np.ndarray, FloatArray, FloatArray]:
+    """Which of `n` beams `scan_points` takes, and their directions' cos and sin (kept for the
+    next call with equal angles: compared by content, never by identity)."""
+    hit = _GEOMETRY.get((n, beams))
+    if hit is not None and hit[0].dtype == np.asarray(angles).dtype and np.array_equal(hit[0], angles):
+        return hit[1], hit[2], hit[3]
+    take = np.linspace(0, n - 1, min(beams, n)).astype(np.int64)
+    a = np.asarray(angles)[take]
+    if len(_GEOMETRY) >= 16:
+        _GEOMETRY.clear()
+    entry = _GEOMETRY[(n, beams)] = (np.array(angles), take, np.cos(a), np.sin(a))
+    return entry[1], entry[2], entry[3]
+
+
 def scan_points(
     ranges: FloatArray, angles: FloatArray, range_max: float, beams: int, offset: Pose | None = None
 ) -> FloatArray:
     """(n, 2) end points of the valid beams of a scan in the robot frame (or, with `offset`, in
     the frame the offset pose is given in), `beams` of them evenly spaced."""
     ranges = np.asarray(ranges, dtype=np.float64)
-    take = np.linspace(0, len(ranges) - 1, min(beams, len(ranges))).astype(np.int64)
-    r, a = ranges[take], np.asarray(angles)[take]
+    take, cos, sin = _beam_geometry(angles, len(ranges), beams)
+    r = ranges[take]
     ok = (r > 0.05) & (r < range_max - 1e-6)
-    pts = np.column_stack([r[ok] * np.cos(a[ok]), r[ok] * np.sin(a[ok])])
+    pts = np.column_stack([r[ok] * cos[ok], r[ok] * sin[ok]])
     if offset is not None:
         c, s = math.cos(offset.theta), math.sin(offset.theta)
         pts = np.column_stack([offset.x + c * pts[:, 0] - s * pts[:, 1], offset.y + s * pts[:, 0] + c * pts[:, 1]])

@@ -123,24 +123,23 @@ def clusters_in_order(points: FloatArray, keep: np.ndarray, gap_m: float, min_po
     >>> [c.index.tolist() for c in clusters_in_order(pts, np.ones(5, bool), 0.2, 2)]
     [[0, 1], [2, 3, 4]]
     """
-    out: list[Cluster] = []
-    run: list[int] = []
-
-    def close() -> None:
-        if len(run) >= min_points:
-            idx = np.array(run)
+    n = len(points)
+    if n == 0:
+        return []
+    keep = np.asarray(keep, dtype=bool)
+    step = np.hypot(*(points[1:] - points[:-1]).T)  # from each point to the next
+    # A run starts at a kept point whose predecessor is not kept or lies farther than the gap.
+    starts = keep.copy()
+    starts[1:] &= ~keep[:-1] | (step > gap_m)
+    first = np.flatnonzero(starts)
+    # ... and ends at a kept point the next one does not continue (not kept, or a start).
+    continues = keep & ~starts
+    ends = np.flatnonzero(keep & np.append(~continues[1:], True))
+    out = []
+    for a, b in zip(first.tolist(), ends.tolist(), strict=True):
+        if b - a + 1 >= min_points:
+            idx = np.arange(a, b + 1)
             out.append(Cluster(points[idx], idx))
-
-    for i in range(len(points)):
-        if not keep[i]:
-            close()
-            run = []
-            continue
-        if run and math.hypot(*(points[i] - points[run[-1]])) > gap_m:
-            close()
-            run = []
-        run.append(i)
-    close()
     return out
 
 
