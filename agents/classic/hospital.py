@@ -389,6 +389,8 @@ class HospitalAgent(Agent):
             self.map_blocked = self.map_clearance < cfg.inflate_m
             self.start_region = world.polygon(world.start_area[0]) if world.start_area else None
             self.wall_points = _sample_segments(walls, 0.04)  # the map's walls as points, map frame
+            self._wall_by_x = np.argsort(self.wall_points[:, 0], kind="stable")  # (for `_remembered`)
+            self._wall_x = self.wall_points[self._wall_by_x, 0]
             self.doors = [_door_frame(world.polygon(d)) for d in world.doors]
             self._free: FloatArray | None = None
         self.order = list(task.cabinet_order)
@@ -772,11 +774,18 @@ class HospitalAgent(Agent):
         return out
 
     def _remembered(self) -> FloatArray:
-        """Robot-frame points within 1.2 m: the map's walls and the evidence cells."""
-        g = self.grid
-        rows, cols = np.nonzero(self.seen())
+        """Robot-frame points within 1.2 m (a square): the map's walls and the evidence cells, in
+        the order of `wall_points` and of the grid's cells."""
+        g, x, y = self.grid, self.pose.x, self.pose.y
+        # Only the walls and cells round the robot are looked at (a margin past the square).
+        lo, hi = np.searchsorted(self._wall_x, (x - 1.25, x + 1.25))
+        walls = self.wall_points[np.sort(self._wall_by_x[lo:hi])]
+        k = int(1.25 / g.resolution) + 2
+        r0, c0 = max(int((y - g.y0) / g.resolution) - k, 0), max(int((x - g.x0) / g.resolution) - k, 0)
+        rows, cols = np.nonzero(self.seen()[r0 : r0 + 2 * k + 1, c0 : c0 + 2 * k + 1])
+        rows, cols = rows + r0, cols + c0
         seen = np.column_stack([g.x0 + (cols + 0.5) * g.resolution, g.y0 + (rows + 0.5) * g.resolution])
-        pts = np.vstack([self.wall_points, seen])
+        pts = np.vstack([walls, seen])
         d = pts - np.array([self.pose.x, self.pose.y])
         d = d[(np.abs(d[:, 0]) < 1.2) & (np.abs(d[:, 1]) < 1.2)]
         c, s = math.cos(self.pose.theta), math.sin(self.pose.theta)
