@@ -98,6 +98,12 @@ class HybridConfig:
             episodes to it: README, "The hybrid hospital agent"). The classic part's driving is
             not cut.
         back_budget_m: see `walk_in_mps` [m].
+        escape_people: what the classic part moves away from and watches (recovering, yielding,
+            driving sideways) is what the last scan shows off the map and also where the people
+            tracker last saw each person walking (for its `lost_s`, 1.5 s): a person who paused
+            just behind the robot is in no scan, and the robot backed away from what it saw into
+            that person (the busy 2019 bump seeds traced). False: the scan only, as the classic
+            agent.
     """
 
     lookahead_m: float = 1.0
@@ -111,6 +117,7 @@ class HybridConfig:
     recover_turn: bool = True
     walk_in_mps: float = 0.0
     back_budget_m: float = 0.1
+    escape_people: bool = True
 
     def __post_init__(self) -> None:
         if not (isinstance(self.lookahead_m, (int, float)) and 0.1 <= self.lookahead_m <= 5.0):
@@ -135,6 +142,8 @@ class HybridConfig:
             isinstance(self.back_budget_m, (int, float)) and 0.0 <= self.back_budget_m <= 10.0
         ):
             raise ValueError(f"HybridConfig.back_budget_m must be in [0, 10] m, got {self.back_budget_m!r}")
+        if not isinstance(self.escape_people, bool):
+            raise ValueError(f"HybridConfig.escape_people must be true or false, got {self.escape_people!r}")
         if not isinstance(self.blind_translation, bool):
             raise ValueError(f"HybridConfig.blind_translation must be true or false, got {self.blind_translation!r}")
         if not (isinstance(self.blind_memory_s, (int, float)) and 0.0 <= self.blind_memory_s <= 10.0):
@@ -274,6 +283,21 @@ class HybridAgent(HospitalAgent):
         """The classic part's memory (the map's walls, the evidence) and the last scans' near end
         points, robot frame (the caller keeps those in the blind sector)."""
         return np.vstack([super()._remembered(), self._memory.recent(self._odom)])
+
+    def _unexplained_near(self, within_m: float = 1.5) -> FloatArray:
+        """The classic part's (the last scan's points the map does not explain, robot frame), and
+        with `escape_people` the people tracked walking within `within_m`."""
+        points = super()._unexplained_near(within_m)
+        if not (self.hybrid.escape_people and self.localised and self.config.track_people):
+            return points
+        walking = [t.position for t in self.tracker.moving()]
+        if not walking:
+            return points
+        d = np.array(walking) - np.array([self.pose.x, self.pose.y])
+        c, s = math.cos(self.pose.theta), math.sin(self.pose.theta)
+        people = np.column_stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]])
+        people = people[np.hypot(people[:, 0], people[:, 1]) < within_m]
+        return np.vstack([points, people]) if len(people) else points
 
     # --- the seams the training wrapper drives ----------------------------------------------------
     def observe(self, obs: dict[str, np.ndarray]) -> bool:

@@ -14,6 +14,7 @@ from pico_gym.agents import make_agent
 from pico_gym.agents.base import RobotSpec
 from pico_gym.agents.classic.hospital import State
 from pico_gym.agents.classic.potential_field import MotionConfig
+from pico_gym.agents.classic.tracking import Track
 from pico_gym.agents.hybrid import HybridAgent, HybridConfig, waypoint_along
 from pico_gym.agents.mlp import MlpActor
 from pico_gym.agents.shield import ScanMemory, SeenFree, behind_seen_free, blind_translation, blind_turn
@@ -394,6 +395,28 @@ def test_a_wedged_recovery_turns_where_the_safety_filter_lets_it(tmp_path) -> No
     from pico_gym.agents.classic.potential_field import safety_filter
 
     assert safety_filter(near, (0.0, 0.0, turns[True]), m)[2] == pytest.approx(turns[True])
+
+
+def test_recovering_it_backs_away_from_a_person_it_tracked_out_of_view(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """A person tracked walking who paused just behind the robot (out of the LRF's view, in no
+    scan) is among what the classic part moves away from (`escape_people`); off, only the scan."""
+    env = gym.make("PicoHospital-v0", n_movers=0, n_boxes=0, closed_doors=0)
+    agent = _agent_in(State.RECOVER, env, tmp_path, HybridConfig())
+    assert agent.localised
+    p = agent.pose
+    behind = np.array([p.x - 0.5 * np.cos(p.theta), p.y - 0.5 * np.sin(p.theta)])
+    now = agent.steps * agent.spec.dt_s
+    agent.tracker.tracks = [Track(7, behind, np.zeros(2), 0.3, now - 1.0, moving=True)]
+    person = (-0.5, 0.0)  # robot frame
+    assert any(np.allclose(q, person) for q in agent._unexplained_near())
+    spot = agent._escape_spot(agent._unexplained_near())
+    agent.hybrid = HybridConfig(escape_people=False)
+    assert not any(np.allclose(q, person) for q in agent._unexplained_near())
+    blind_spot = agent._escape_spot(agent._unexplained_near())
+    # It backs off away from the person (1.25 m from it here; blind to it, 0.97 m).
+    assert np.hypot(*(spot - behind)) > np.hypot(*(blind_spot - behind)) + 0.2
+    with pytest.raises(ValueError, match="escape_people"):
+        HybridConfig(escape_people=1)  # type: ignore[arg-type]
 
 
 def test_hybrid_config_refuses_a_bad_recover_turn() -> None:
