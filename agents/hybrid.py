@@ -293,9 +293,7 @@ class HybridAgent(HospitalAgent):
         walking = [t.position for t in self.tracker.moving()]
         if not walking:
             return points
-        d = np.array(walking) - np.array([self.pose.x, self.pose.y])
-        c, s = math.cos(self.pose.theta), math.sin(self.pose.theta)
-        people = np.column_stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]])
+        people = self._to_robot(np.array(walking))
         people = people[np.hypot(people[:, 0], people[:, 1]) < within_m]
         return np.vstack([points, people]) if len(people) else points
 

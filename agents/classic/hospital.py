@@ -786,10 +786,7 @@ class HospitalAgent(Agent):
         rows, cols = rows + r0, cols + c0
         seen = np.column_stack([g.x0 + (cols + 0.5) * g.resolution, g.y0 + (rows + 0.5) * g.resolution])
         pts = np.vstack([walls, seen])
-        d = pts - np.array([self.pose.x, self.pose.y])
-        d = d[(np.abs(d[:, 0]) < 1.2) & (np.abs(d[:, 1]) < 1.2)]
-        c, s = math.cos(self.pose.theta), math.sin(self.pose.theta)
-        return np.column_stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]])
+        return self._to_robot(pts[(np.abs(pts[:, 0] - x) < 1.2) & (np.abs(pts[:, 1] - y) < 1.2)])
 
     def blocked(self, nogo: bool = False, squeeze: bool = False) -> np.ndarray:
         """The planning grid: the map inflated, plus the evidence of what it does not show (and,
@@ -883,9 +880,10 @@ class HospitalAgent(Agent):
         )
 
     def _to_robot(self, p: FloatArray) -> FloatArray:
+        """Map-frame points (N, 2), or one point (2,), in the robot frame, at the pose estimate."""
         d = np.asarray(p) - np.array([self.pose.x, self.pose.y])
         c, s = math.cos(self.pose.theta), math.sin(self.pose.theta)
-        return np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1]])
+        return np.stack([c * d[..., 0] + s * d[..., 1], -s * d[..., 0] + c * d[..., 1]], axis=-1)
 
     def _cabinet(self) -> Cabinet:
         return self.cabinets[self.order[self.done]]
