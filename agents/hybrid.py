@@ -95,7 +95,7 @@ class HybridConfig:
             slack) into a person who had followed the robot and stood just behind it. 0 (off)
             in `HybridConfig()`; the shipped policy was fine-tuned with 0.5 in its loop and its
             metadata turns it on (a policy trained without it backs along corridors and lost
-            episodes to it: README, "The hybrid hospital agent"). The classic part's driving is
+            episodes to it: docs/hospital-hybrid.md). The classic part's driving is
             not cut.
         back_budget_m: see `walk_in_mps` [m].
         escape_people: what the classic part moves away from and watches (recovering, yielding,

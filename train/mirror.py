@@ -2,7 +2,7 @@
 
 The escape policy trained with a plain MLP learnt one way out of every room: turn left and follow
 the walls round until the exit comes by (median SPL 0.53 with the exit to its right at the start,
-0.92 to its left; README, "The escape policy"). A policy whose mean action for the reflected
+0.92 to its left; docs/training.md). A policy whose mean action for the reflected
 observation is the reflected action cannot prefer a hand; it must take the side the exit is on.
 
 `MirrorPolicy` is SB3's `ActorCriticPolicy` with the Gaussian's mean replaced by
