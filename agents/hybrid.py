@@ -30,8 +30,8 @@ import numpy as np
 
 from pico_gym.agents.base import RobotSpec
 from pico_gym.agents.classic.hospital import HospitalAgent, HospitalAgentConfig, State
-from pico_gym.agents.classic.potential_field import keep_in_view, safety_filter
-from pico_gym.agents.shield import ScanMemory, SeenFree, behind_seen_free, blind_translation, blind_turn
+from pico_gym.agents.classic.potential_field import safety_filter
+from pico_gym.agents.shield import ScanMemory, SeenFree, behind_seen_free, blind_translation
 from pico_gym.overlay import Overlay
 from pico_gym.types import FloatArray
 from pico_gym.wrappers import LearningConfig, LearningEncoder, encode_goal, rescale_action, unit_action
@@ -102,8 +102,9 @@ class HybridConfig:
             driving sideways) is what the last scan shows off the map and also where the people
             tracker last saw each person walking (for its `lost_s`, 1.5 s): a person who paused
             just behind the robot is in no scan, and the robot backed away from what it saw into
-            that person (the busy 2019 bump seeds traced). False: the scan only, as the classic
-            agent.
+            that person (the busy 2019 bump seeds traced). False: the scan only. (The classic
+            agent's `HospitalAgentConfig.escape_people`, off by default there; the hybrid's own
+            switch decides for its classic part.)
     """
 
     lookahead_m: float = 1.0
@@ -182,7 +183,9 @@ class HybridAgent(HospitalAgent):
         learning: the observation encoding `model` was trained with.
         hybrid: the hybrid's own settings; default: those the policy's metadata names (its
             training loop's backing cut, `walk_in_mps` and `back_budget_m`), else `HybridConfig()`.
-        config: the classic part's settings.
+        config: the classic part's settings (its blind-sector memory and cuts are the hybrid's
+            own, from `hybrid`: `blind_memory_s` replaces the classic `blind_memory_s`, and the
+            blind cuts replace the classic `people_cuts_m`).
         driver: no policy at all (the training wrapper drives NAVIGATE itself through `observe`,
             `policy_input` and `finish`; `act` then falls back to the classic command).
     """
@@ -242,7 +245,10 @@ class HybridAgent(HospitalAgent):
         self._near = np.zeros((0, 2))
         self.command = (0.0, 0.0, 0.0)
         self.waypoint: FloatArray | None = None
+        # The classic part's blind-sector memory and cuts, with the hybrid's settings (its own cuts
+        # below replace the classic part's `people_cuts_m`).
         self._memory = ScanMemory(self.hybrid.blind_memory_s, self.spec.dt_s)
+        self._people_free = None
         lrf = self.spec.lrf
         self._seen_free = SeenFree(
             self.hybrid.blind_memory_s,
@@ -274,28 +280,13 @@ class HybridAgent(HospitalAgent):
     # --- the shield's short memory of the blind sector ---------------------------------------------
     def _sense(self, obs: dict[str, np.ndarray]) -> FloatArray:
         near = super()._sense(obs)
-        self._memory.add(self._scan_robot, self._odom)
         if self.hybrid.blind_turn:  # only the blind cuts ask it
             self._seen_free.add(np.asarray(obs["lrf"], dtype=np.float64), self._odom)
         return near
 
-    def _remembered(self) -> FloatArray:
-        """The classic part's memory (the map's walls, the evidence) and the last scans' near end
-        points, robot frame (the caller keeps those in the blind sector)."""
-        return np.vstack([super()._remembered(), self._memory.recent(self._odom)])
-
-    def _unexplained_near(self, within_m: float = 1.5) -> FloatArray:
-        """The classic part's (the last scan's points the map does not explain, robot frame), and
-        with `escape_people` the people tracked walking within `within_m`."""
-        points = super()._unexplained_near(within_m)
-        if not (self.hybrid.escape_people and self.localised and self.config.track_people):
-            return points
-        walking = [t.position for t in self.tracker.moving()]
-        if not walking:
-            return points
-        people = self._to_robot(np.array(walking))
-        people = people[np.hypot(people[:, 0], people[:, 1]) < within_m]
-        return np.vstack([points, people]) if len(people) else points
+    def _escapes_people(self) -> bool:
+        """The hybrid's own switch (`HybridConfig.escape_people`) decides, not its classic part's."""
+        return self.hybrid.escape_people
 
     # --- the seams the training wrapper drives ----------------------------------------------------
     def observe(self, obs: dict[str, np.ndarray]) -> bool:
@@ -333,14 +324,8 @@ class HybridAgent(HospitalAgent):
         """A command (the policy's or the classic part's) as the action: shielded or not."""
         if self.hybrid.shield or self.state is not State.NAVIGATE:
             if self.hybrid.blind_turn and self._cluttered():
-                vx, vy = keep_in_view(np.array(command[:2]), self.motion)
                 seen_free = lambda pts: self._seen_free.free(pts, self._odom, aged=False)  # noqa: E731
-                # First, so that a turn in place is left to the filter; while navigating only: a
-                # robot boxed in (yielding, recovering) must be free to edge out.
-                if self.hybrid.blind_translation and self.state is State.NAVIGATE:
-                    vx, vy = self._translate((vx, vy, command[2]), seen_free)
-                twist = (float(vx), float(vy), command[2])
-                command = (twist[0], twist[1], blind_turn(twist, self.motion, *self._view, seen_free=seen_free))
+                command = self._blind_cuts(command, seen_free, translate=self.hybrid.blind_translation)
             return self._finish(self._near, command)
         return np.array([*command, -1.0] if self.announce else command, dtype=np.float32)
 
@@ -348,7 +333,7 @@ class HybridAgent(HospitalAgent):
         """`blind_translation`; with `walk_in_mps`, backing only into the strip behind that was
         seen free lately, or within `back_budget_m` of backing since it last was."""
         if self.hybrid.walk_in_mps <= 0.0 or self.classic_leg:
-            return blind_translation(twist, self.motion, *self._view, seen_free=seen_free)
+            return super()._translate(twist, seen_free)
         behind = behind_seen_free(self.motion, lambda pts: self._seen_free.free(pts, self._odom, aged=True))
         if behind:
             self._back_left = self.hybrid.back_budget_m

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import gymnasium as gym
@@ -10,7 +11,7 @@ import pytest
 
 import pico_gym  # noqa: F401
 from pico_gym.agents import make_agent
-from pico_gym.agents.classic.hospital import HospitalAgent, State, _update_evidence
+from pico_gym.agents.classic.hospital import HospitalAgent, HospitalAgentConfig, State, _update_evidence
 
 QUIET = {"closed_doors": (0, 0), "n_boxes": (0, 0), "n_movers": (0, 0)}
 
@@ -357,3 +358,91 @@ def test_docking_takes_depth_and_angle_from_the_front_the_lrf_sees(estimate_off:
     along_goal = float((fit.goal - centre) @ n)
     assert abs(along_goal + 0.33) < 0.01  # 0.33 m in front of the seen line
     assert fit_front(wall, expected, depth_m=0.33) is None  # no front where one is expected: no fit
+
+
+def test_with_escape_people_it_backs_away_from_a_person_it_tracked_out_of_view() -> None:
+    """A person tracked walking who paused just behind the robot (out of the LRF's view, in no
+    scan) is among what RECOVER and YIELD move away from with `escape_people`; off, only the scan."""
+    from pico_gym.agents.classic.tracking import Track
+
+    env = gym.make("PicoHospital-v0", n_movers=0, n_boxes=0, closed_doors=0)
+    agent = make_agent("classic", env, config=HospitalAgentConfig(escape_people=True))
+    obs, info = env.reset(seed=3)
+    agent.reset(obs, info)
+    agent.act(obs)
+    assert agent.localised
+    agent._go(State.RECOVER)
+    p = agent.pose
+    behind = np.array([p.x - 0.5 * np.cos(p.theta), p.y - 0.5 * np.sin(p.theta)])
+    now = agent.steps * agent.spec.dt_s
+    agent.tracker.tracks = [Track(7, behind, np.zeros(2), 0.3, now - 1.0, moving=True)]
+    person = (-0.5, 0.0)  # robot frame
+    assert any(np.allclose(q, person) for q in agent._unexplained_near())
+    assert not any(np.allclose(q, person) for q in agent._unexplained_near(within_m=0.4))
+    spot = agent._escape_spot(agent._unexplained_near())
+    agent.config = dataclasses.replace(agent.config, escape_people=False)
+    assert not any(np.allclose(q, person) for q in agent._unexplained_near())
+    blind_spot = agent._escape_spot(agent._unexplained_near())
+    assert np.hypot(*(spot - behind)) > np.hypot(*(blind_spot - behind)) + 0.2
+
+
+def _localised_classic(config: HospitalAgentConfig, seed: int = 3) -> tuple[gym.Env, HospitalAgent]:
+    env = gym.make("PicoHospital-v0", **QUIET)
+    agent = make_agent("classic", env, config=config)
+    obs, info = env.reset(seed=seed)
+    agent.reset(obs, info)
+    agent.act(obs)
+    assert agent.localised
+    return env, agent
+
+
+def test_the_blind_memory_puts_the_last_scans_behind_the_robot() -> None:
+    """`blind_memory_s`: the safety filter's blind sector also holds the last scans' end points."""
+    _, bare = _localised_classic(HospitalAgentConfig())
+    _, remembering = _localised_classic(HospitalAgentConfig(blind_memory_s=4.0))
+    walls = bare._remembered()
+    kept = remembering._remembered()
+    assert len(kept) > len(walls)
+    assert np.array_equal(kept[: len(walls)], walls)  # the map's walls and the evidence first, as before
+
+
+def test_near_a_person_no_move_sweeps_the_rear_into_unseen_space() -> None:
+    """`people_cuts_m`: with a person tracked walking nearby, backing into the blind sector (never
+    seen free) is cut; with nobody near, the command passes as before."""
+    from pico_gym.agents.classic.tracking import Track
+
+    config = HospitalAgentConfig(blind_memory_s=4.0, people_cuts_m=1.5)
+    _, agent = _localised_classic(config)
+    agent._go(State.NAVIGATE)
+    # Sideways and a little back, turning: the rear corner leads into the blind sector (the
+    # bumps traced: a person who walked up behind the robot).
+    sweeping = (-0.12, 0.45, 1.0)
+    p = agent.pose
+    now = agent.steps * agent.spec.dt_s
+    agent.tracker.tracks = []
+    assert not agent._person_near()
+    assert np.allclose(agent._finish(np.zeros((0, 2)), sweeping), sweeping)
+    agent.tracker.tracks = [Track(7, np.array([p.x + 1.0, p.y]), np.zeros(2), 0.3, now - 0.5, moving=True)]
+    assert agent._person_near()
+    vx, vy, w = agent._finish(np.zeros((0, 2)), sweeping)
+    assert (vx, vy) == (0.0, 0.0) and w == pytest.approx(1.0)  # the turn in place stays in the circle
+    # Only walking tracks count, and only within `people_cuts_m`.
+    agent.tracker.tracks = [Track(7, np.array([p.x + 1.0, p.y]), np.zeros(2), 0.3, now - 0.5, moving=False)]
+    assert not agent._person_near()
+    agent.tracker.tracks = [Track(7, np.array([p.x + 1.6, p.y]), np.zeros(2), 0.3, now - 0.5, moving=True)]
+    assert not agent._person_near()
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"escape_people": 1}, "escape_people"),
+        ({"blind_memory_s": -1.0}, "blind_memory_s"),
+        ({"blind_memory_s": True}, "blind_memory_s"),
+        ({"people_cuts_m": float("nan")}, "people_cuts_m"),
+        ({"people_cuts_m": 1.0}, "people_cuts_m needs blind_memory_s"),
+    ],
+)
+def test_the_config_refuses_bad_blind_settings(kwargs: dict, match: str) -> None:
+    with pytest.raises(ValueError, match=match):
+        HospitalAgentConfig(**kwargs)

@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from enum import Enum
 from typing import Any
@@ -60,6 +61,7 @@ from pico_gym.agents.classic.potential_field import (
     safety_filter,
 )
 from pico_gym.agents.classic.tracking import PeopleTracker, TrackerConfig
+from pico_gym.agents.shield import ScanMemory, SeenFree, blind_translation, blind_turn
 from pico_gym.jit import njit
 from pico_gym.overlay import Overlay
 from pico_gym.types import FloatArray, Pose
@@ -135,6 +137,20 @@ class HospitalAgentConfig:
             points of moving ones (people, carts) are left out of the scan-to-map registration.
         clear_trails: ... and the cells a moving track walked through are cleared (a person
             leaves no wall behind; where it stands it is evidence like anything else).
+        escape_people: what RECOVER and YIELD back away from and watch, and what driving
+            sideways keeps in view, is the last scan's points off the map and also where the
+            people tracker last saw each person walking (within its `lost_s`): a person who
+            paused just behind the robot is in no scan, and the robot backed away from what it
+            saw into that person. False: the last scan's points only.
+        blind_memory_s: the safety filter's blind sector (behind the LRF's view) also holds the
+            near end points of the last this many seconds of scans, kept with odometry
+            (`pico_gym.agents.shield.ScanMemory`): a person who walked out of view behind the
+            robot was in those scans [s] (0: the map's walls and the evidence only).
+        people_cuts_m: while a person tracked walking (or remembered after it left the view) is
+            within this distance of the robot, no translation or turn may sweep the footprint's
+            rear into space that no scan of the last `blind_memory_s` saw free
+            (`pico_gym.agents.shield.blind_translation`, `blind_turn`) [m] (0: off; needs
+            `blind_memory_s` > 0).
         yield_range_m: no path with something the map does not explain this close means
             YIELD, not RECOVER [m].
         yield_keep_m: YIELD backs away to keep this far from it (the simulator's cart pauses
@@ -193,7 +209,22 @@ class HospitalAgentConfig:
     track_beams: int = 250
     track_people: bool = True
     clear_trails: bool = True
+    escape_people: bool = False
+    blind_memory_s: float = 0.0
+    people_cuts_m: float = 0.0
     tracker: TrackerConfig = dataclasses.field(default_factory=TrackerConfig)
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.escape_people, bool):
+            raise ValueError(f"HospitalAgentConfig.escape_people must be true or false, got {self.escape_people!r}")
+        for name, top in (("blind_memory_s", 60.0), ("people_cuts_m", 10.0)):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0.0 <= value <= top:
+                raise ValueError(f"HospitalAgentConfig.{name} must be a number in [0, {top:g}], got {value!r}")
+        if self.people_cuts_m > 0.0 and self.blind_memory_s <= 0.0:
+            raise ValueError(
+                "HospitalAgentConfig.people_cuts_m needs blind_memory_s > 0 (the scans that vouch for free space)"
+            )
 
 
 @njit
@@ -426,6 +457,16 @@ class HospitalAgent(Agent):
         self.front_fit: FrontFit | None = None
         self._scan_robot = np.zeros((0, 2))
         self._fixed = np.zeros((0, 2))
+        self._memory = ScanMemory(cfg.blind_memory_s, self.spec.dt_s)
+        lrf = self.spec.lrf
+        self._people_free = (
+            SeenFree(
+                cfg.blind_memory_s, self.spec.dt_s, lrf.angle_min_rad, lrf.angle_max_rad, lrf.range_min_m,
+                lrf.range_max_m, self.motion.half_depth, self.motion.half_width,
+            )
+            if cfg.people_cuts_m > 0.0
+            else None
+        )  # fmt: skip
         self.health = 0.0
         self.localise_s: float | None = None
         self._last_points = np.zeros((0, 2))
@@ -487,6 +528,9 @@ class HospitalAgent(Agent):
             behind = self._remembered()
             near = np.vstack([near, behind[np.abs(np.arctan2(behind[:, 1], behind[:, 0])) > lrf.angle_max_rad - 0.05]])
             near = self._wary(near)
+        self._memory.add(self._scan_robot, odom)  # (after `near`: this step's scan is in it already)
+        if self._people_free is not None:
+            self._people_free.add(ranges, odom)
         return near
 
     def _decide(self, near: FloatArray) -> tuple[float, float, float]:
@@ -506,6 +550,9 @@ class HospitalAgent(Agent):
     def _finish(self, near: FloatArray, command: tuple[float, float, float]) -> np.ndarray:
         """The command through the safety filter (kept in the LRF's view, turns cut near corners,
         scaled down until the footprint keeps its margin), and the never-stand-still rule."""
+        if self._people_free is not None and self._person_near():
+            free = self._people_free
+            command = self._blind_cuts(command, lambda pts: free.free(pts, self._odom, aged=False))
         vx, vy, w = command
         v = keep_in_view(np.array([vx, vy]), self.motion)
         if self.config.turn_keep_m > 0.0:
@@ -522,6 +569,38 @@ class HospitalAgent(Agent):
             said, self._announcing = self._announcing, False
             return np.array([vx, vy, w, 1.0 if said else -1.0], dtype=np.float32)
         return np.array([vx, vy, w], dtype=np.float32)
+
+    def _person_near(self) -> bool:
+        """Whether a person tracked walking, or remembered after it left the view, is within
+        `people_cuts_m` of the pose estimate (before localisation: always)."""
+        if not self.localised:
+            return True
+        here = np.array([self.pose.x, self.pose.y])
+        reach = self.config.people_cuts_m
+        return any(
+            t.moving and math.hypot(*(t.position - here)) < reach for t in (*self.tracker.tracks, *self.tracker.dropped)
+        )
+
+    def _blind_cuts(
+        self, command: tuple[float, float, float], seen_free: Callable[[FloatArray], FloatArray], translate: bool = True
+    ) -> tuple[float, float, float]:
+        """The command with no translation (while navigating, with `translate`) and no turn that
+        sweeps the footprint's rear into space `seen_free` does not vouch for (`_translate`,
+        `blind_turn`); recovering or yielding, a robot boxed in must be free to edge out. (First,
+        so that a turn in place is left to the safety filter.)"""
+        vx, vy = keep_in_view(np.array(command[:2]), self.motion)
+        if translate and self.state is State.NAVIGATE:
+            vx, vy = self._translate((vx, vy, command[2]), seen_free)
+        twist = (float(vx), float(vy), command[2])
+        view = (self.spec.lrf.angle_min_rad, self.spec.lrf.angle_max_rad)
+        return (twist[0], twist[1], blind_turn(twist, self.motion, *view, seen_free=seen_free))
+
+    def _translate(
+        self, twist: tuple[float, float, float], seen_free: Callable[[FloatArray], FloatArray]
+    ) -> tuple[float, float]:
+        """`_blind_cuts`' translation: no part of the footprint's rear into unvouched space."""
+        view = (self.spec.lrf.angle_min_rad, self.spec.lrf.angle_max_rad)
+        return blind_translation(twist, self.motion, *view, seen_free=seen_free)
 
     # --- localisation ---------------------------------------------------------------------------
     def _track(self, odom: Pose, points: FloatArray) -> None:
@@ -786,7 +865,10 @@ class HospitalAgent(Agent):
         rows, cols = rows + r0, cols + c0
         seen = np.column_stack([g.x0 + (cols + 0.5) * g.resolution, g.y0 + (rows + 0.5) * g.resolution])
         pts = np.vstack([walls, seen])
-        return self._to_robot(pts[(np.abs(pts[:, 0] - x) < 1.2) & (np.abs(pts[:, 1] - y) < 1.2)])
+        mapped = self._to_robot(pts[(np.abs(pts[:, 0] - x) < 1.2) & (np.abs(pts[:, 1] - y) < 1.2)])
+        if not self._memory.steps:
+            return mapped
+        return np.vstack([mapped, self._memory.recent(self._odom)])  # the last scans' (`blind_memory_s`)
 
     def blocked(self, nogo: bool = False, squeeze: bool = False) -> np.ndarray:
         """The planning grid: the map inflated, plus the evidence of what it does not show (and,
@@ -1173,14 +1255,25 @@ class HospitalAgent(Agent):
         return not bool((self.map_clearance[rows, cols] < 0.1).any())
 
     def _unexplained_near(self, within_m: float = 1.5) -> FloatArray:
-        """Robot-frame points within `within_m` of the last scan that the map does not explain."""
+        """Robot-frame points within `within_m` of the last scan that the map does not explain,
+        and with `escape_people` the people tracked walking within `within_m`."""
         pts = self._last_points
-        if len(pts) == 0:
+        if len(pts):
+            seen = self._to_map(pts)
+            d = self.localiser.distance_at(np.ascontiguousarray(seen[:, 0]), np.ascontiguousarray(seen[:, 1]))
+            pts = pts[(d > self.config.unexplained_m) & (np.hypot(pts[:, 0], pts[:, 1]) < within_m)]
+        if not (self._escapes_people() and self.localised and self.config.track_people):
             return pts
-        seen = self._to_map(pts)
-        d = self.localiser.distance_at(np.ascontiguousarray(seen[:, 0]), np.ascontiguousarray(seen[:, 1]))
-        keep = (d > self.config.unexplained_m) & (np.hypot(pts[:, 0], pts[:, 1]) < within_m)
-        return pts[keep]
+        walking = [t.position for t in self.tracker.moving()]
+        if not walking:
+            return pts
+        people = self._to_robot(np.array(walking))
+        people = people[np.hypot(people[:, 0], people[:, 1]) < within_m]
+        return np.vstack([pts, people]) if len(people) else pts
+
+    def _escapes_people(self) -> bool:
+        """Whether `_unexplained_near` holds the people tracked walking (`escape_people`)."""
+        return self.config.escape_people
 
     # --- drawing ---------------------------------------------------------------------------------
     def overlay(self) -> Overlay:
