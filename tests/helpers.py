@@ -44,3 +44,16 @@ def box_room(half: float = 2.0) -> dict:
 def square_segments(half: float = 2.0) -> np.ndarray:
     h = half
     return np.array([[-h, -h, h, -h], [h, -h, h, h], [h, h, -h, h], [-h, h, -h, -h]], dtype=float)
+
+
+def person_paused_behind(agent, metres: float = 0.5) -> np.ndarray:  # type: ignore[no-untyped-def]
+    """Make a hospital agent's people tracker hold a person it saw walking a second ago, paused
+    `metres` straight behind its pose estimate (out of the LRF's view, in no scan); returns where
+    (map frame). In the robot's frame the person is at (-metres, 0)."""
+    from pico_gym.agents.classic.tracking import Track
+
+    p = agent.pose
+    behind = np.array([p.x - metres * np.cos(p.theta), p.y - metres * np.sin(p.theta)])
+    now = agent.steps * agent.spec.dt_s
+    agent.tracker.tracks = [Track(7, behind, np.zeros(2), 0.3, now - 1.0, moving=True)]
+    return behind

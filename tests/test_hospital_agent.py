@@ -8,6 +8,7 @@ import math
 import gymnasium as gym
 import numpy as np
 import pytest
+from helpers import person_paused_behind
 
 import pico_gym  # noqa: F401
 from pico_gym.agents import make_agent
@@ -363,8 +364,6 @@ def test_docking_takes_depth_and_angle_from_the_front_the_lrf_sees(estimate_off:
 def test_with_escape_people_it_backs_away_from_a_person_it_tracked_out_of_view() -> None:
     """A person tracked walking who paused just behind the robot (out of the LRF's view, in no
     scan) is among what RECOVER and YIELD move away from with `escape_people`; off, only the scan."""
-    from pico_gym.agents.classic.tracking import Track
-
     env = gym.make("PicoHospital-v0", n_movers=0, n_boxes=0, closed_doors=0)
     agent = make_agent("classic", env, config=HospitalAgentConfig(escape_people=True))
     obs, info = env.reset(seed=3)
@@ -372,10 +371,7 @@ def test_with_escape_people_it_backs_away_from_a_person_it_tracked_out_of_view()
     agent.act(obs)
     assert agent.localised
     agent._go(State.RECOVER)
-    p = agent.pose
-    behind = np.array([p.x - 0.5 * np.cos(p.theta), p.y - 0.5 * np.sin(p.theta)])
-    now = agent.steps * agent.spec.dt_s
-    agent.tracker.tracks = [Track(7, behind, np.zeros(2), 0.3, now - 1.0, moving=True)]
+    behind = person_paused_behind(agent, 0.5)
     person = (-0.5, 0.0)  # robot frame
     assert any(np.allclose(q, person) for q in agent._unexplained_near())
     assert not any(np.allclose(q, person) for q in agent._unexplained_near(within_m=0.4))

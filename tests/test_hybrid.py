@@ -8,13 +8,13 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 import pytest
+from helpers import person_paused_behind
 
 import pico_gym  # noqa: F401
 from pico_gym.agents import make_agent
 from pico_gym.agents.base import RobotSpec
 from pico_gym.agents.classic.hospital import State
 from pico_gym.agents.classic.potential_field import MotionConfig
-from pico_gym.agents.classic.tracking import Track
 from pico_gym.agents.hybrid import HybridAgent, HybridConfig, waypoint_along
 from pico_gym.agents.mlp import MlpActor
 from pico_gym.agents.shield import ScanMemory, SeenFree, behind_seen_free, blind_translation, blind_turn
@@ -403,10 +403,7 @@ def test_recovering_it_backs_away_from_a_person_it_tracked_out_of_view(tmp_path)
     env = gym.make("PicoHospital-v0", n_movers=0, n_boxes=0, closed_doors=0)
     agent = _agent_in(State.RECOVER, env, tmp_path, HybridConfig())
     assert agent.localised
-    p = agent.pose
-    behind = np.array([p.x - 0.5 * np.cos(p.theta), p.y - 0.5 * np.sin(p.theta)])
-    now = agent.steps * agent.spec.dt_s
-    agent.tracker.tracks = [Track(7, behind, np.zeros(2), 0.3, now - 1.0, moving=True)]
+    behind = person_paused_behind(agent, 0.5)
     person = (-0.5, 0.0)  # robot frame
     assert any(np.allclose(q, person) for q in agent._unexplained_near())
     spot = agent._escape_spot(agent._unexplained_near())
