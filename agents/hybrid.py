@@ -183,9 +183,9 @@ class HybridAgent(HospitalAgent):
         learning: the observation encoding `model` was trained with.
         hybrid: the hybrid's own settings; default: those the policy's metadata names (its
             training loop's backing cut, `walk_in_mps` and `back_budget_m`), else `HybridConfig()`.
-        config: the classic part's settings (its blind-sector memory and cuts are the hybrid's
-            own, from `hybrid`: `blind_memory_s` replaces the classic `blind_memory_s`, and the
-            blind cuts replace the classic `people_cuts_m`).
+        config: the classic part's settings, but for its blind sector: the hybrid's own
+            `HybridConfig.blind_memory_s` is used instead of `config.blind_memory_s`, its blind
+            cuts instead of `config.people_cuts_m`, its `escape_people` instead of the config's.
         driver: no policy at all (the training wrapper drives NAVIGATE itself through `observe`,
             `policy_input` and `finish`; `act` then falls back to the classic command).
     """
