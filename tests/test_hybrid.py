@@ -451,3 +451,19 @@ def test_a_policy_file_names_the_cuts_its_agent_drives_with(tmp_path) -> None:  
     path.with_suffix(".json").write_text(json.dumps({**meta, "hybrid": {"walk_in_mps": -1}}))
     with pytest.raises(ValueError, match=r"hybrid\.json: the metadata's 'hybrid' settings: .*walk_in_mps"):
         HybridAgent(RobotSpec.of(env), path=path)
+
+
+def test_the_hybrid_drives_its_classic_part_with_its_own_blind_sector_settings(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """The classic agent's opt-in blind-sector options do not stack on the hybrid's own: its
+    memory is `HybridConfig.blind_memory_s` long and its cuts are its own."""
+    from pico_gym.agents.classic.hospital import HospitalAgentConfig
+
+    env = gym.make("PicoHospital-v0", **QUIET)
+    config = HospitalAgentConfig(blind_memory_s=10.0, people_cuts_m=2.0, escape_people=False)
+    agent = make_agent("hybrid", env, path=_policy_file(tmp_path, env), config=config)
+    agent.hybrid = HybridConfig(blind_memory_s=2.0)
+    obs, info = env.reset(seed=3)
+    agent.reset(obs, info)
+    assert agent._memory.steps == round(2.0 / env.unwrapped.config.dt_s)
+    assert agent._people_free is None
+    assert agent._escapes_people()  # the hybrid's escape_people (on), not the config's
