@@ -12,7 +12,7 @@ knows: no privileged input). Docking, the dwell, yielding and recovery stay clas
 command, the policy's too, passes the classic safety filter (a shield: `HybridConfig.shield`),
 which also remembers what the LRF saw in the last seconds and is now behind the robot
 (`HybridConfig.blind_memory_s`). Where the policy keeps getting stuck on one leg, the classic
-part drives the rest of it (`HybridConfig.fallback_after`).
+part drives the rest of it (`HybridConfig.fallback_after`; `fallback_after_s` after a long leg).
 
 The policy is trained in exactly this loop (`pico_gym.train.hybrid.HybridTraining`): the classic
 part acts by itself in every state but NAVIGATE, and the policy's encoder sees only the steps it
@@ -59,6 +59,10 @@ class HybridConfig:
             (to the next cabinet), the classic part drives the rest of that leg. A policy that
             heads for a gap the shield will not let it through goes back after every recovery; the
             classic part marks the spot it got stuck at and plans around it. 0: never.
+        fallback_after_s: the classic part also drives the rest of a leg once the leg has
+            lasted this long [s]: a person walking to and fro in the hallway the robot needs
+            kept the policy's driving yielding and recovering there for minutes without a
+            recovery of its own (busy 2019 dev timeouts), where the classic part gets by. 0: never.
         blind_turn: with the shield, a turn that would swing the footprint's rear out of its
             turning circle into the LRF's blind sector while the robot translates is cut until it
             does not (`pico_gym.agents.shield.blind_turn`): driving sideways at the edge of the
@@ -111,6 +115,7 @@ class HybridConfig:
     shield: bool = True
     blind_memory_s: float = 4.0
     fallback_after: int = 2
+    fallback_after_s: float = 0.0
     blind_turn: bool = True
     blind_translation: bool = True
     blind_near_m: float = 0.0
@@ -153,6 +158,9 @@ class HybridConfig:
             0 <= self.fallback_after <= 100
         ):
             raise ValueError(f"HybridConfig.fallback_after must be an integer in [0, 100], got {self.fallback_after!r}")
+        s = self.fallback_after_s
+        if isinstance(s, bool) or not isinstance(s, (int, float)) or not 0.0 <= s <= 3600.0:
+            raise ValueError(f"HybridConfig.fallback_after_s must be a number in [0, 3600] s, got {s!r}")
 
 
 def waypoint_along(here: FloatArray, path: list[FloatArray], lookahead_m: float) -> FloatArray:
@@ -263,6 +271,7 @@ class HybridAgent(HospitalAgent):
         )
         self._back_left = self.hybrid.back_budget_m  # backing left into unvouched space [m]
         self._leg = 0  # the cabinet the recoveries below were counted for
+        self._leg_start = 0  # the step its leg began at
         self._recoveries = 0  # recoveries the policy's driving ended in on this leg
         self._drove = False  # the policy drove the last step
 
@@ -273,9 +282,12 @@ class HybridAgent(HospitalAgent):
 
     @property
     def classic_leg(self) -> bool:
-        """Whether the classic part drives the rest of this leg (`HybridConfig.fallback_after`)."""
-        n = self.hybrid.fallback_after
-        return n > 0 and self._recoveries >= n
+        """Whether the classic part drives the rest of this leg (`HybridConfig.fallback_after`,
+        `fallback_after_s`)."""
+        n, limit_s = self.hybrid.fallback_after, self.hybrid.fallback_after_s
+        if n > 0 and self._recoveries >= n:
+            return True
+        return limit_s > 0.0 and (self.steps - self._leg_start) * self.spec.dt_s > limit_s
 
     # --- the shield's short memory of the blind sector ---------------------------------------------
     def _sense(self, obs: dict[str, np.ndarray]) -> FloatArray:
@@ -294,7 +306,7 @@ class HybridAgent(HospitalAgent):
         True when the policy is to drive this step (the classic part is navigating a route)."""
         self._near = self._sense(obs)
         if self.done != self._leg:
-            self._leg, self._recoveries = self.done, 0
+            self._leg, self._recoveries, self._leg_start = self.done, 0, self.steps
         self.command = self._decide(self._near)
         driving = self.state is State.NAVIGATE and bool(self.path) and not self.classic_leg
         self._drove = driving

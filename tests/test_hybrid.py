@@ -467,3 +467,27 @@ def test_the_hybrid_drives_its_classic_part_with_its_own_blind_sector_settings(t
     assert agent._memory.steps == round(2.0 / env.unwrapped.config.dt_s)
     assert agent._people_free is None
     assert agent._escapes_people()  # the hybrid's escape_people (on), not the config's
+
+
+def test_after_a_long_leg_the_classic_part_drives_the_rest_of_it(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """`fallback_after_s`: once a leg has lasted that long, the classic part drives (no policy);
+    a new leg starts the clock again; 0 never falls back on time."""
+    env = gym.make("PicoHospital-v0", **QUIET)
+    agent = _agent_in(State.NAVIGATE, env, tmp_path, HybridConfig(fallback_after_s=1.0))
+    dt = env.unwrapped.config.dt_s
+    assert not agent.classic_leg
+    agent._leg_start = agent.steps - round(1.5 / dt)  # the leg began 1.5 s ago
+    assert agent.classic_leg
+    agent.hybrid = HybridConfig(fallback_after_s=0.0)
+    assert not agent.classic_leg
+    agent.hybrid = HybridConfig(fallback_after_s=1.0)
+    agent.done += 1  # the next leg: its clock starts at this step
+    obs, *_ = env.step(np.zeros(3, dtype=np.float32))
+    agent.observe(obs)
+    assert agent._leg_start == agent.steps and not agent.classic_leg
+
+
+@pytest.mark.parametrize("bad", [-1.0, True, float("nan"), 1e6])
+def test_hybrid_config_refuses_a_bad_fallback_after_s(bad: float) -> None:
+    with pytest.raises(ValueError, match="fallback_after_s"):
+        HybridConfig(fallback_after_s=bad)
