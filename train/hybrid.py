@@ -32,6 +32,9 @@ class HybridTraining(gym.Wrapper):
         env: a PicoHospital-v0 env (arrival="dwell").
         lookahead_m, shield, walk_in_mps, back_budget_m: `HybridConfig` (the cuts the policy
             is trained with should be the ones it is deployed with).
+        fallback_after_s: `HybridConfig.fallback_after_s`: a leg stuck this long is driven by
+            the classic part, its steps not the policy's (0: the loop the shipped policy was
+            trained in).
     """
 
     def __init__(
@@ -41,11 +44,14 @@ class HybridTraining(gym.Wrapper):
         shield: bool = True,
         walk_in_mps: float = 0.0,
         back_budget_m: float = 0.1,
+        fallback_after_s: float = 120.0,
     ) -> None:
         if not hasattr(type(getattr(env.unwrapped, "task", None)), "next_target"):
             raise ValueError(f"HybridTraining needs PicoHospital-v0; got {type(env.unwrapped).__name__}")
         super().__init__(env)
-        hybrid = HybridConfig(lookahead_m, shield, walk_in_mps=walk_in_mps, back_budget_m=back_budget_m)
+        hybrid = HybridConfig(
+            lookahead_m, shield, walk_in_mps=walk_in_mps, back_budget_m=back_budget_m, fallback_after_s=fallback_after_s
+        )
         self.driver = HybridAgent(RobotSpec.of(env), hybrid=hybrid, driver=True)
         spaces = dict(env.observation_space.spaces)  # type: ignore[attr-defined]
         low = np.array([0.0, -1.0, -1.0, -1.0, -1.0], np.float32)
