@@ -247,7 +247,6 @@ class HybridAgent(HospitalAgent):
                 f"robot's LRF ({spec.lrf.n_beams} beams) gives {self.encoder.space.shape}"
             )
         self._low, self._high = spec.robot.action_low, spec.robot.action_high
-        self._view = (spec.lrf.angle_min_rad, spec.lrf.angle_max_rad)
 
     def reset(self, obs: dict[str, np.ndarray], info: dict[str, Any] | None = None) -> None:
         super().reset(obs, info)

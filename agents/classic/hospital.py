@@ -399,6 +399,7 @@ class HospitalAgent(Agent):
         # safety filter keeps the margin.
         self.follow = dataclasses.replace(self.motion, repulsion_range=0.12, repulsion_gain=0.004)
         self.angles = spec.beam_angles
+        self._view = (spec.lrf.angle_min_rad, spec.lrf.angle_max_rad)  # the LRF's bearings
         self._task: Any = None
         self._steps = lambda seconds: max(1, round(seconds / spec.dt_s))
 
@@ -592,15 +593,13 @@ class HospitalAgent(Agent):
         if translate and self.state is State.NAVIGATE:
             vx, vy = self._translate((vx, vy, command[2]), seen_free)
         twist = (float(vx), float(vy), command[2])
-        view = (self.spec.lrf.angle_min_rad, self.spec.lrf.angle_max_rad)
-        return (twist[0], twist[1], blind_turn(twist, self.motion, *view, seen_free=seen_free))
+        return (twist[0], twist[1], blind_turn(twist, self.motion, *self._view, seen_free=seen_free))
 
     def _translate(
         self, twist: tuple[float, float, float], seen_free: Callable[[FloatArray], FloatArray]
     ) -> tuple[float, float]:
         """`_blind_cuts`' translation: no part of the footprint's rear into unvouched space."""
-        view = (self.spec.lrf.angle_min_rad, self.spec.lrf.angle_max_rad)
-        return blind_translation(twist, self.motion, *view, seen_free=seen_free)
+        return blind_translation(twist, self.motion, *self._view, seen_free=seen_free)
 
     # --- localisation ---------------------------------------------------------------------------
     def _track(self, odom: Pose, points: FloatArray) -> None:
