@@ -203,3 +203,22 @@ def test_lrf_ranges_takes_any_array_like_alike_and_names_bad_flags() -> None:
     frozen.flags.writeable = False
     with pytest.raises(ValueError, match="out must be"):
         lrf_ranges(pose, room, angles, out=frozen)
+
+
+@pytest.mark.parametrize("n_walls", [1, 40])
+def test_hits_beyond_max_range_read_inf_on_every_path(n_walls: int) -> None:
+    """A wall that starts within the range and runs out of it: the beams that meet it beyond
+    max_range read inf, from the first call and from a loop's kept beams alike (few and many
+    segments: the cast's plain and sorted loops), as the env's readings call them no hit."""
+    walls = np.array([[3.0, -20.0 + k, 3.0, -19.0 + k] for k in range(n_walls)]) if n_walls > 1 else None
+    room = np.array([[3.0, -20.0, 3.0, 20.0]]) if walls is None else walls
+    pose = Pose(0.0, 0.0, 0.0)
+    angles = np.linspace(-1.5, 1.5, 301)
+    reference = brute_force(pose, room, angles, 5.0)
+    assert np.isinf(reference).sum() > 50 and np.isfinite(reference).sum() > 50
+    for _ in range(2):  # the first call, then the kept beams' one-call path
+        np.testing.assert_array_equal(np.isinf(lrf_ranges(pose, room, angles, max_range=5.0)), np.isinf(reference))
+        assert lrf_ranges(pose, room, angles, max_range=5.0) == pytest.approx(reference, abs=1e-9)
+    lrf = Lrf(LrfConfig(n_beams=301, angle_min_rad=-1.5, angle_max_rad=1.5, range_max_m=5.0, noise_m=0.0))
+    scan = lrf.scan(pose, room, np.random.default_rng(0))
+    np.testing.assert_array_equal(scan == np.float32(5.0), np.isinf(reference) | (reference == 5.0))

@@ -110,8 +110,10 @@ def _cast(
     out: FloatArray,
     clear: bool,
     one_sided: np.ndarray,
-) -> None:
-    """Exact ranges into `out`; with clear=False, only shortens what `out` holds (a second set).
+) -> bool:
+    """Exact ranges into `out` (inf where nothing is hit); with clear=False, only shortens what
+    `out` holds (a second set). Returns whether a hit beyond `max_range` may have been written (a
+    segment in range reaches past it); when False, every range is within it or inf.
 
     `one_sided` (empty, or a flag per segment) marks segments of closed outlines directed with
     the free side on their left: one seen from its right is skipped, as a beam from free space
@@ -126,8 +128,9 @@ def _cast(
     s = math.sin(theta)
     m = segments.shape[0]
     if m >= _SORT_MIN_SEGMENTS:
-        _cast_sorted(x, y, c, s, segments, beam_angles, beam_cos, beam_sin, max_range, out, one_sided)
-        return
+        return _cast_sorted(x, y, c, s, segments, beam_angles, beam_cos, beam_sin, max_range, out, one_sided)
+    reach_sq = max_range * max_range
+    far = False
     for k in range(m):
         # The segment in the sensor frame.
         wx1 = segments[k, 0] - x
@@ -150,9 +153,12 @@ def _cast(
         px = x1 + t * ex
         py = y1 + t * ey
         d_sq = px * px + py * py
-        if d_sq > max_range * max_range:
+        if d_sq > reach_sq:
             continue
+        # A hit lies no farther than the farther end point: only then can it be out of range.
+        far |= max(x1 * x1 + y1 * y1, x2 * x2 + y2 * y2) > reach_sq
         _cast_one(x1, y1, x2, y2, 0.0, beam_angles, beam_cos, beam_sin, a_lo, a_hi, out)
+    return far
 
 
 @njit
@@ -168,7 +174,7 @@ def _cast_sorted(
     max_range: float,
     out: FloatArray,
     one_sided: np.ndarray,
-) -> None:
+) -> bool:
     """`_cast` for many segments (a building, not a room): nearest first, so that segments hidden
     behind nearer ones find their beams already shorter than their nearest point and are skipped.
     The bound's margin covers the rounding of r and of the distance, so the ranges are exactly
@@ -182,6 +188,8 @@ def _cast_sorted(
     local = np.empty((m, 4))
     nearest = np.empty(m)
     kept = 0
+    reach_sq = max_range * max_range
+    far = False
     for k in range(m):
         wx1 = segments[k, 0] - x
         wy1 = segments[k, 1] - y
@@ -202,8 +210,9 @@ def _cast_sorted(
         px = x1 + t * ex
         py = y1 + t * ey
         d_sq = px * px + py * py
-        if d_sq > max_range * max_range:
+        if d_sq > reach_sq:
             continue
+        far |= max(x1 * x1 + y1 * y1, x2 * x2 + y2 * y2) > reach_sq
         local[kept, 0] = x1
         local[kept, 1] = y1
         local[kept, 2] = x2
@@ -217,6 +226,7 @@ def _cast_sorted(
         _cast_one(
             local[k, 0], local[k, 1], local[k, 2], local[k, 3], bound, beam_angles, beam_cos, beam_sin, a_lo, a_hi, out
         )
+    return far
 
 
 # From this many segments `_cast` sorts them near to far (measured: it pays on the hospitals'
@@ -376,7 +386,6 @@ class _Recent:
 
 
 _BEAMS = _Recent(4)  # beam angles -> (cos, sin), checked ascending once
-_NO_ANGLES = np.zeros(0)
 
 
 @njit
@@ -400,29 +409,15 @@ def _cast_known_beams(
     n = segments.shape[0]
     if segments.shape[1] != 4 or n >= GRID_MIN_SEGMENTS or one_sided.shape[0] not in (0, n):
         return False
-    if out.shape[0] != beam_angles.shape[0] or not _equal(beam_angles, known):
+    if out.shape[0] != beam_angles.shape[0] or beam_angles.shape[0] != known.shape[0]:
         return False
-    _cast(x, y, theta, segments, beam_angles, beam_cos, beam_sin, max_range, out, True, one_sided)
-    _no_hit_to_inf(out, max_range)
-    return True
-
-
-# `_cast_known_beams` once more, as `lrf_ranges`' first try with the caller's arrays as they come:
-# it takes these types only (`_fast_small_scan` compiles it once, then no more), so any other
-# argument, a float32 or read-only or strided array, a list, raises TypeError in numba's
-# dispatcher before anything runs, and `lrf_ranges` takes its checked path.
-_small_scan = njit(_cast_known_beams.py_func)
-_SMALL_SCAN_TYPES = "(f8, f8, f8, f8[:, ::1], f8[::1], f8[::1], f8[::1], f8[::1], f8, f8[::1], b1[::1])"
-_small_scan_ready = False
-
-
-def _fast_small_scan() -> Any:
-    global _small_scan_ready
-    if not _small_scan_ready:
-        _small_scan.compile(_SMALL_SCAN_TYPES)
-        _small_scan.disable_compile()
-        _small_scan_ready = True
-    return _small_scan
+    same = True
+    for i in range(out.shape[0]):  # the beams' check and `_cast`'s clearing in one pass
+        same &= beam_angles[i] == known[i]
+        out[i] = math.inf
+    if same and _cast(x, y, theta, segments, known, beam_cos, beam_sin, max_range, out, False, one_sided):
+        _no_hit_to_inf(out, max_range)
+    return same
 
 
 _GRIDS = _Recent(4)  # (segments, one-sided flags) -> SegmentGrid
@@ -472,21 +467,70 @@ def _cast_grid_known_beams(
     grid: tuple,  # SegmentGrid.kernel_args
 ) -> bool:
     """`lrf_ranges` on a prebuilt `SegmentGrid` in one call when `beam_angles` equal `known_angles`
-    (whose cos and sin are given); False, without casting, when they differ."""
-    if not _equal(beam_angles, known_angles):
+    (whose cos and sin are given) and `out` holds one element a beam; False, without casting,
+    when they differ."""
+    if out.shape[0] != known_angles.shape[0] or not _equal(beam_angles, known_angles):
         return False
     data, flags, starts, x0, y0, h, nx, ny = grid
     _cast_grid(x, y, theta, data, flags, starts, x0, y0, h, nx, ny, beam_cos, beam_sin, max_range, out)
     return True
 
 
+class _Typed:
+    """A compiled twin of an `njit` function that runs for the given argument types only: numba's
+    dispatcher then raises TypeError, before anything runs, for any other argument (a float32,
+    read-only or strided array, a list), so `lrf_ranges` can try one compiled call with the
+    caller's arguments as they come and take its checked path when they do not fit."""
+
+    def __init__(self, function: Any, *signatures: tuple) -> None:
+        self.function = function
+        self.signatures = signatures
+        self.dispatcher: Any = None
+
+    def ready(self) -> Any:
+        if self.dispatcher is None:
+            dispatcher = njit(self.function.py_func)
+            for signature in self.signatures:
+                dispatcher.compile(signature)
+            dispatcher.disable_compile()
+            self.dispatcher = dispatcher
+        return self.dispatcher
+
+
+def _signatures() -> tuple[_Typed, _Typed, _Typed]:
+    from numba import types as t
+
+    f8, b1, i8 = t.float64, t.boolean, t.int64
+    vec, flags, segs = f8[::1], b1[::1], f8[:, ::1]
+    grids = [t.Tuple((segs, kind, i8[::1], f8, f8, f8, i8, i8)) for kind in (t.none, flags)]
+    return (
+        _Typed(_cast_known_beams, (f8, f8, f8, segs, vec, vec, vec, vec, f8, vec, flags)),
+        _Typed(_cast_grid_known_beams, *[(f8, f8, f8, vec, vec, vec, vec, f8, vec, g) for g in grids]),
+        _Typed(
+            _cast_known_grid,
+            *[(f8, f8, f8, segs, flags, vec, segs, flags, vec, vec, vec, f8, vec, g) for g in grids],
+        ),
+    )
+
+
+_SMALL_SCAN, _GRID_SCAN, _KNOWN_GRID_SCAN = _signatures()
+# (beam angles, cos, sin) of the newest beams `lrf_ranges` was called with, once its compiled
+# fast paths are ready (set by `_beams`): None before the first call.
+_FAST: tuple[FloatArray, FloatArray, FloatArray, Any, Any, Any] | None = None
+
+
 def _beams(beam_angles: FloatArray) -> tuple[FloatArray, FloatArray]:
+    global _FAST
+
     def make() -> tuple[FloatArray, FloatArray]:
         if np.any(np.diff(beam_angles) < 0.0):
             raise ValueError("beam_angles must be sorted in ascending order")
         return np.cos(beam_angles), np.sin(beam_angles)
 
-    return _BEAMS.get((beam_angles,), make)
+    cos, sin = _BEAMS.get((beam_angles,), make)
+    (known,), _ = _BEAMS.entries[0]  # the entry just found or made
+    _FAST = (known, cos, sin, _SMALL_SCAN.ready(), _GRID_SCAN.ready(), _KNOWN_GRID_SCAN.ready())
+    return cos, sin
 
 
 def lrf_ranges(
@@ -528,16 +572,30 @@ def lrf_ranges(
     >>> lrf_ranges(Pose(0.0, 0.0, 0.0), square, np.array([0.0, math.pi / 4])).round(6).tolist()
     [1.0, 1.414214]
     """
-    if _BEAMS.entries and type(segments) is np.ndarray and segments.size < 4 * GRID_MIN_SEGMENTS:
-        # A loop over poses of a small scene with the last call's beams: one compiled call whose
-        # argument types numba's dispatcher checks (anything else: TypeError, the path below).
-        (known,), (cos, sin) = _BEAMS.entries[0]
+    fast = _FAST
+    if fast is not None:
+        # A loop over poses with the last call's beams: one compiled call with the arguments as
+        # they come, whose types numba's dispatcher checks (anything else: TypeError) and whose
+        # contents the kernel checks (anything else: False); then the checked path below.
+        known, cos, sin, small_scan, grid_scan, known_grid_scan = fast
         buffer = np.empty(known.shape[0]) if out is None else out
-        flags = _NO_FLAGS if one_sided is None else one_sided
-        scan = _fast_small_scan()
+        x, y, th = pose[0], pose[1], pose[2]
         try:
-            if scan(pose[0], pose[1], pose[2], segments, beam_angles, known, cos, sin, max_range, buffer, flags):
-                return buffer
+            if type(segments) is SegmentGrid:
+                if grid_scan(x, y, th, beam_angles, known, cos, sin, max_range, buffer, segments.kernel_args):
+                    return buffer
+            elif type(segments) is np.ndarray:
+                flags = _NO_FLAGS if one_sided is None else one_sided
+                if segments.size < 4 * GRID_MIN_SEGMENTS:
+                    if small_scan(x, y, th, segments, beam_angles, known, cos, sin, max_range, buffer, flags):
+                        return buffer
+                elif _GRIDS.entries:
+                    (known_segments, known_flags), grid = _GRIDS.entries[0]
+                    if known_grid_scan(
+                        x, y, th, segments, flags, beam_angles, known_segments, known_flags,
+                        known, cos, sin, max_range, buffer, grid.kernel_args,
+                    ):  # fmt: skip
+                        return buffer
         except TypeError:
             pass
     if not (type(beam_angles) is np.ndarray and beam_angles.dtype.char == "d" and beam_angles.ndim == 1):
@@ -557,10 +615,6 @@ def lrf_ranges(
         )
     x, y, th, max_range = float(pose[0]), float(pose[1]), float(pose[2]), float(max_range)
     if isinstance(segments, SegmentGrid):
-        if _BEAMS.entries:  # a loop over poses with one set of beams: one compiled call
-            (known,), (cos, sin) = _BEAMS.entries[0]
-            if _cast_grid_known_beams(x, y, th, beam_angles, known, cos, sin, max_range, out, segments.kernel_args):
-                return out
         cos, sin = _beams(beam_angles)
         segments.cast(x, y, th, cos, sin, max_range, out)
         return out
@@ -579,21 +633,10 @@ def lrf_ranges(
     if flags.size not in (0, len(segments)):
         raise ValueError(f"one_sided must hold one flag per segment ({len(segments)}), got {flags.size}")
     if len(segments) < GRID_MIN_SEGMENTS:
-        # The beams are those of the last call (checked in the kernel): one compiled call.
-        (known,), (cos, sin) = _BEAMS.entries[0] if _BEAMS.entries else ((_NO_ANGLES,), (_NO_ANGLES, _NO_ANGLES))
-        if not _cast_known_beams(x, y, th, segments, beam_angles, known, cos, sin, max_range, out, flags):
-            cos, sin = _beams(beam_angles)
-            _cast(x, y, th, segments, beam_angles, cos, sin, max_range, out, True, flags)
+        cos, sin = _beams(beam_angles)
+        if _cast(x, y, th, segments, beam_angles, cos, sin, max_range, out, True, flags):
             _no_hit_to_inf(out, max_range)
         return out
-    if _GRIDS.entries and _BEAMS.entries:  # a loop over poses of one scene: one compiled call
-        (known_segments, known_flags), grid = _GRIDS.entries[0]
-        (known,), (cos, sin) = _BEAMS.entries[0]
-        if _cast_known_grid(
-            x, y, th, segments, flags, beam_angles, known_segments, known_flags, known, cos, sin,
-            max_range, out, grid.kernel_args,
-        ):  # fmt: skip
-            return out
     grid = _GRIDS.get((segments, flags), lambda: SegmentGrid(segments, flags))
     cos, sin = _beams(beam_angles)
     grid.cast(x, y, th, cos, sin, max_range, out)
