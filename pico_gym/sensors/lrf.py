@@ -385,7 +385,7 @@ class _Recent:
         return value
 
 
-_BEAMS = _Recent(4)  # beam angles -> (cos, sin), checked ascending once
+_BEAMS = _Recent(4)  # beam angles (checked ascending once) -> rows (angles, cos, sin)
 
 
 @njit
@@ -396,26 +396,26 @@ def _cast_known_beams(
     segments: Segments,
     beam_angles: FloatArray,
     known: FloatArray,
-    beam_cos: FloatArray,
-    beam_sin: FloatArray,
     max_range: float,
     out: FloatArray,
     one_sided: np.ndarray,
 ) -> bool:
-    """`lrf_ranges`' small-scene cast in one call when `beam_angles` equal `known` (whose cos and
-    sin are given) and the arrays fit: (N, 4) segments below `GRID_MIN_SEGMENTS`, no flags or one
-    a segment, one element of `out` a beam. False, without casting, when any does not hold (the
-    caller's checked path then decides, and names what is wrong)."""
+    """`lrf_ranges`' small-scene cast in one call when `beam_angles` equal `known[0]` (`known`:
+    the rows angles, cos, sin in one array, as every argument costs the call) and the arrays fit:
+    (N, 4) segments below `GRID_MIN_SEGMENTS`, no flags or one a segment, one element of `out` a
+    beam. False, without casting, when any does not hold (the caller's checked path then
+    decides, and names what is wrong)."""
     n = segments.shape[0]
     if segments.shape[1] != 4 or n >= GRID_MIN_SEGMENTS or one_sided.shape[0] not in (0, n):
         return False
-    if out.shape[0] != beam_angles.shape[0] or beam_angles.shape[0] != known.shape[0]:
+    angles = known[0]
+    if out.shape[0] != beam_angles.shape[0] or beam_angles.shape[0] != angles.shape[0]:
         return False
     same = True
     for i in range(out.shape[0]):  # the beams' check and `_cast`'s clearing in one pass
-        same &= beam_angles[i] == known[i]
+        same &= beam_angles[i] == angles[i]
         out[i] = math.inf
-    if same and _cast(x, y, theta, segments, known, beam_cos, beam_sin, max_range, out, False, one_sided):
+    if same and _cast(x, y, theta, segments, angles, known[1], known[2], max_range, out, False, one_sided):
         _no_hit_to_inf(out, max_range)
     return same
 
@@ -439,9 +439,7 @@ def _cast_known_grid(
     beam_angles: FloatArray,
     known_segments: Segments,
     known_one_sided: np.ndarray,
-    known_angles: FloatArray,
-    beam_cos: FloatArray,
-    beam_sin: FloatArray,
+    known: FloatArray,
     max_range: float,
     out: FloatArray,
     grid: tuple,  # SegmentGrid.kernel_args
@@ -450,7 +448,7 @@ def _cast_known_grid(
     newest grid and beams were made from; False, without casting, when anything differs."""
     if not (_equal(one_sided, known_one_sided) and _same_segments(segments, known_segments)):
         return False
-    return _cast_grid_known_beams(x, y, theta, beam_angles, known_angles, beam_cos, beam_sin, max_range, out, grid)
+    return _cast_grid_known_beams(x, y, theta, beam_angles, known, max_range, out, grid)
 
 
 @njit
@@ -459,20 +457,18 @@ def _cast_grid_known_beams(
     y: float,
     theta: float,
     beam_angles: FloatArray,
-    known_angles: FloatArray,
-    beam_cos: FloatArray,
-    beam_sin: FloatArray,
+    known: FloatArray,
     max_range: float,
     out: FloatArray,
     grid: tuple,  # SegmentGrid.kernel_args
 ) -> bool:
-    """`lrf_ranges` on a prebuilt `SegmentGrid` in one call when `beam_angles` equal `known_angles`
-    (whose cos and sin are given) and `out` holds one element a beam; False, without casting,
-    when they differ."""
-    if out.shape[0] != known_angles.shape[0] or not _equal(beam_angles, known_angles):
+    """`lrf_ranges` on a prebuilt `SegmentGrid` in one call when `beam_angles` equal `known[0]`
+    (rows angles, cos, sin) and `out` holds one element a beam; False, without casting, when
+    they differ."""
+    if out.shape[0] != known.shape[1] or not _equal(beam_angles, known[0]):
         return False
     data, flags, starts, x0, y0, h, nx, ny = grid
-    _cast_grid(x, y, theta, data, flags, starts, x0, y0, h, nx, ny, beam_cos, beam_sin, max_range, out)
+    _cast_grid(x, y, theta, data, flags, starts, x0, y0, h, nx, ny, known[1], known[2], max_range, out)
     return True
 
 
@@ -501,36 +497,34 @@ def _signatures() -> tuple[_Typed, _Typed, _Typed]:
     from numba import types as t
 
     f8, b1, i8 = t.float64, t.boolean, t.int64
-    vec, flags, segs = f8[::1], b1[::1], f8[:, ::1]
+    vec, flags, segs = f8[::1], b1[::1], f8[:, ::1]  # (beams: rows angles, cos, sin as segs)
     grids = [t.Tuple((segs, kind, i8[::1], f8, f8, f8, i8, i8)) for kind in (t.none, flags)]
     return (
-        _Typed(_cast_known_beams, (f8, f8, f8, segs, vec, vec, vec, vec, f8, vec, flags)),
-        _Typed(_cast_grid_known_beams, *[(f8, f8, f8, vec, vec, vec, vec, f8, vec, g) for g in grids]),
-        _Typed(
-            _cast_known_grid,
-            *[(f8, f8, f8, segs, flags, vec, segs, flags, vec, vec, vec, f8, vec, g) for g in grids],
-        ),
+        _Typed(_cast_known_beams, (f8, f8, f8, segs, vec, segs, f8, vec, flags)),
+        _Typed(_cast_grid_known_beams, *[(f8, f8, f8, vec, segs, f8, vec, g) for g in grids]),
+        _Typed(_cast_known_grid, *[(f8, f8, f8, segs, flags, vec, segs, flags, segs, f8, vec, g) for g in grids]),
     )
 
 
 _SMALL_SCAN, _GRID_SCAN, _KNOWN_GRID_SCAN = _signatures()
-# (beam angles, cos, sin) of the newest beams `lrf_ranges` was called with, once its compiled
-# fast paths are ready (set by `_beams`): None before the first call.
-_FAST: tuple[FloatArray, FloatArray, FloatArray, Any, Any, Any] | None = None
+# The rows (angles, cos, sin) of the newest beams `lrf_ranges` was called with, and its compiled
+# fast paths, ready (set by `_beams`): None before the first call.
+_FAST: tuple[FloatArray, Any, Any, Any] | None = None
+_SMALL_SIZE = 4 * GRID_MIN_SEGMENTS  # the elements of an (N, 4) array the angular cast takes
 
 
 def _beams(beam_angles: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """The beams' cos and sin (kept: `_BEAMS`); these beams become `lrf_ranges`' fast ones."""
     global _FAST
 
-    def make() -> tuple[FloatArray, FloatArray]:
+    def make() -> FloatArray:
         if np.any(np.diff(beam_angles) < 0.0):
             raise ValueError("beam_angles must be sorted in ascending order")
-        return np.cos(beam_angles), np.sin(beam_angles)
+        return np.stack([beam_angles, np.cos(beam_angles), np.sin(beam_angles)])
 
-    cos, sin = _BEAMS.get((beam_angles,), make)
-    (known,), _ = _BEAMS.entries[0]  # the entry just found or made
-    _FAST = (known, cos, sin, _SMALL_SCAN.ready(), _GRID_SCAN.ready(), _KNOWN_GRID_SCAN.ready())
-    return cos, sin
+    known = _BEAMS.get((beam_angles,), make)
+    _FAST = (known, _SMALL_SCAN.ready(), _GRID_SCAN.ready(), _KNOWN_GRID_SCAN.ready())
+    return known[1], known[2]
 
 
 def lrf_ranges(
@@ -577,25 +571,26 @@ def lrf_ranges(
         # A loop over poses with the last call's beams: one compiled call with the arguments as
         # they come, whose types numba's dispatcher checks (anything else: TypeError) and whose
         # contents the kernel checks (anything else: False); then the checked path below.
-        known, cos, sin, small_scan, grid_scan, known_grid_scan = fast
-        buffer = np.empty(known.shape[0]) if out is None else out
+        known, small_scan, grid_scan, known_grid_scan = fast
+        buffer = np.empty(known.shape[1]) if out is None else out
         x, y, th = pose[0], pose[1], pose[2]
         try:
-            if type(segments) is SegmentGrid:
-                if grid_scan(x, y, th, beam_angles, known, cos, sin, max_range, buffer, segments.kernel_args):
-                    return buffer
-            elif type(segments) is np.ndarray:
+            kind = type(segments)
+            if kind is np.ndarray:
                 flags = _NO_FLAGS if one_sided is None else one_sided
-                if segments.size < 4 * GRID_MIN_SEGMENTS:
-                    if small_scan(x, y, th, segments, beam_angles, known, cos, sin, max_range, buffer, flags):
+                if segments.size < _SMALL_SIZE:
+                    if small_scan(x, y, th, segments, beam_angles, known, max_range, buffer, flags):
                         return buffer
                 elif _GRIDS.entries:
                     (known_segments, known_flags), grid = _GRIDS.entries[0]
                     if known_grid_scan(
-                        x, y, th, segments, flags, beam_angles, known_segments, known_flags,
-                        known, cos, sin, max_range, buffer, grid.kernel_args,
+                        x, y, th, segments, flags, beam_angles, known_segments, known_flags, known, max_range, buffer,
+                        grid.kernel_args,
                     ):  # fmt: skip
                         return buffer
+            elif kind is SegmentGrid:
+                if grid_scan(x, y, th, beam_angles, known, max_range, buffer, segments.kernel_args):
+                    return buffer
         except TypeError:
             pass
     if not (type(beam_angles) is np.ndarray and beam_angles.dtype.char == "d" and beam_angles.ndim == 1):
