@@ -222,3 +222,28 @@ def test_hits_beyond_max_range_read_inf_on_every_path(n_walls: int) -> None:
     lrf = Lrf(LrfConfig(n_beams=301, angle_min_rad=-1.5, angle_max_rad=1.5, range_max_m=5.0, noise_m=0.0))
     scan = lrf.scan(pose, room, np.random.default_rng(0))
     np.testing.assert_array_equal(scan == np.float32(5.0), np.isinf(reference) | (reference == 5.0))
+
+
+def test_lrf_ranges_refuses_non_finite_input_by_name_on_every_path() -> None:
+    """A NaN or infinite pose, segment, beam or max_range (or max_range <= 0) is refused with the
+    argument's name, also when the call would otherwise take a one-call path (beams kept)."""
+    rng = np.random.default_rng(3)
+    small = square_segments(2.0)
+    large = np.concatenate([square_segments(4.0), rng.uniform(-3.5, 3.5, (GRID_MIN_SEGMENTS + 10, 4))])
+    angles = LrfConfig().beam_angles
+    pose = Pose(0.3, -0.2, 0.7)
+    for scene in (small, large, SegmentGrid(large)):
+        lrf_ranges(pose, scene, angles)  # the beams (and the grid) kept
+        for bad_pose in (Pose(math.nan, 0.0, 0.0), Pose(0.0, math.inf, 0.0), Pose(0.0, 0.0, math.nan)):
+            with pytest.raises(ValueError, match="pose must be finite"):
+                lrf_ranges(bad_pose, scene, angles)
+        for bad_range in (0.0, -1.0, math.nan, math.inf):
+            with pytest.raises(ValueError, match="max_range must be a finite number > 0"):
+                lrf_ranges(pose, scene, angles, max_range=bad_range)
+    for scene in (small, large):
+        broken = scene.copy()
+        broken[1, 2] = math.nan
+        with pytest.raises(ValueError, match="segments must be finite"):
+            lrf_ranges(pose, broken, angles)
+    with pytest.raises(ValueError, match="beam_angles must be finite"):
+        lrf_ranges(pose, small, np.array([0.0, math.nan, 1.0]))

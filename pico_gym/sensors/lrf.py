@@ -345,6 +345,22 @@ def _equal(a: np.ndarray, b: np.ndarray) -> bool:
 
 
 @njit
+def _fine(x: float, y: float, theta: float, max_range: float) -> bool:
+    """A finite pose and a finite positive range (what `lrf_ranges` refuses otherwise)."""
+    return math.isfinite(x) and math.isfinite(y) and math.isfinite(theta) and 0.0 < max_range < math.inf
+
+
+@njit
+def _finite(segments: Segments) -> bool:
+    """Every coordinate finite, without a temporary array (v - v is 0 for a finite v, else NaN)."""
+    total = 0.0
+    for k in range(segments.shape[0]):
+        for j in range(segments.shape[1]):
+            total += segments[k, j] - segments[k, j]
+    return total == 0.0
+
+
+@njit
 def _no_hit_to_inf(out: FloatArray, max_range: float) -> None:
     for i in range(out.shape[0]):
         if out[i] > max_range:
@@ -408,6 +424,8 @@ def _cast_known_beams(
     n = segments.shape[0]
     if segments.shape[1] != 4 or n >= GRID_MIN_SEGMENTS or one_sided.shape[0] not in (0, n):
         return False
+    if not (_fine(x, y, theta, max_range) and _finite(segments)):
+        return False
     angles = known[0]
     if out.shape[0] != beam_angles.shape[0] or beam_angles.shape[0] != angles.shape[0]:
         return False
@@ -465,7 +483,7 @@ def _cast_grid_known_beams(
     """`lrf_ranges` on a prebuilt `SegmentGrid` in one call when `beam_angles` equal `known[0]`
     (rows angles, cos, sin) and `out` holds one element a beam; False, without casting, when
     they differ."""
-    if out.shape[0] != known.shape[1] or not _equal(beam_angles, known[0]):
+    if out.shape[0] != known.shape[1] or not _fine(x, y, theta, max_range) or not _equal(beam_angles, known[0]):
         return False
     data, flags, starts, x0, y0, h, nx, ny = grid
     _cast_grid(x, y, theta, data, flags, starts, x0, y0, h, nx, ny, known[1], known[2], max_range, out)
@@ -518,6 +536,8 @@ def _beams(beam_angles: FloatArray) -> tuple[FloatArray, FloatArray]:
     global _FAST
 
     def make() -> FloatArray:
+        if not np.isfinite(beam_angles).all():
+            raise ValueError("beam_angles must be finite")
         if np.any(np.diff(beam_angles) < 0.0):
             raise ValueError("beam_angles must be sorted in ascending order")
         return np.stack([beam_angles, np.cos(beam_angles), np.sin(beam_angles)])
@@ -553,9 +573,10 @@ def lrf_ranges(
         nothing within max_range.
 
     Raises:
-        ValueError: when the beam angles are not in ascending order, `one_sided` does not hold
-            one flag per segment, or `out` is not a contiguous float64 array of one element per
-            beam.
+        ValueError: when the beam angles are not finite and in ascending order, the pose or the
+            segments are not finite, max_range is not a finite number > 0, `one_sided` does not
+            hold one flag per segment, or `out` is not a contiguous float64 array of one element
+            per beam.
 
     The beams' directions and, for `GRID_MIN_SEGMENTS` segments or more, the grid are kept for the
     next calls with equal arrays (equal by content, checked every call: an array may have changed in
@@ -609,6 +630,10 @@ def lrf_ranges(
             f"got {type(out).__name__} {getattr(out, 'dtype', '')} {getattr(out, 'shape', '')}"
         )
     x, y, th, max_range = float(pose[0]), float(pose[1]), float(pose[2]), float(max_range)
+    if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(th)):
+        raise ValueError(f"pose must be finite, got {(x, y, th)}")
+    if not 0.0 < max_range < math.inf:
+        raise ValueError(f"max_range must be a finite number > 0, got {max_range}")
     if isinstance(segments, SegmentGrid):
         cos, sin = _beams(beam_angles)
         segments.cast(x, y, th, cos, sin, max_range, out)
@@ -624,6 +649,8 @@ def lrf_ranges(
         if segments.size % 4:
             raise ValueError(f"segments must be (N, 4) rows (x1, y1, x2, y2), got shape {segments.shape}")
         segments = segments.reshape(-1, 4)
+    if not np.isfinite(segments).all():
+        raise ValueError("segments must be finite")
     flags = _NO_FLAGS if one_sided is None else np.ascontiguousarray(one_sided, dtype=np.bool_).reshape(-1)
     if flags.size not in (0, len(segments)):
         raise ValueError(f"one_sided must hold one flag per segment ({len(segments)}), got {flags.size}")
