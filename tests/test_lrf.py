@@ -210,8 +210,7 @@ def test_hits_beyond_max_range_read_inf_on_every_path(n_walls: int) -> None:
     """A wall that starts within the range and runs out of it: the beams that meet it beyond
     max_range read inf, from the first call and from a loop's kept beams alike (few and many
     segments: the cast's plain and sorted loops), as the env's readings call them no hit."""
-    walls = np.array([[3.0, -20.0 + k, 3.0, -19.0 + k] for k in range(n_walls)]) if n_walls > 1 else None
-    room = np.array([[3.0, -20.0, 3.0, 20.0]]) if walls is None else walls
+    room = np.array([[3.0, -20.0 + 40.0 * k / n_walls, 3.0, -20.0 + 40.0 * (k + 1) / n_walls] for k in range(n_walls)])
     pose = Pose(0.0, 0.0, 0.0)
     angles = np.linspace(-1.5, 1.5, 301)
     reference = brute_force(pose, room, angles, 5.0)
