@@ -115,6 +115,78 @@ def test_dijkstra_equals_a_heapq_search_bit_for_bit(heap_room: int | None) -> No
     assert np.array_equal(got, expected)
 
 
+@pytest.mark.parametrize("near_wall_cost", [3.0, 1.0, 0.4, 0.0])
+def test_the_bucket_search_equals_the_heap_search_bit_for_bit(near_wall_cost: float) -> None:
+    """Without a window `_dijkstra` searches with buckets: on random walls, costs (below 1 too),
+    seeds spread over a metre (one cell seeded twice, one seed blocked) and allowed regions, it
+    gives the heap's distances bit for bit, also when its entries run out and it starts over. A
+    cost of zero rules buckets out: the heap searches then (and still matches heapq)."""
+    from pico_gym.world.grid import CostGrid, _dijkstra, _dijkstra_buckets, _dijkstra_run
+
+    rng = np.random.default_rng(11)
+    for trial in range(12):
+        walls = rng.uniform(0.0, 6.0, size=(int(rng.integers(1, 25)), 4))
+        grid = Grid.covering((0.0, 0.0, 6.0, 6.0), float(rng.choice([0.05, 0.1, 0.13])), margin=0.3)
+        costs = CostGrid.of(grid, walls, comfort_clearance_m=0.3, near_wall_cost=near_wall_cost)
+        rows, cols = grid.shape
+        n = int(rng.integers(1, 40))
+        seeds_r = rng.integers(0, rows, n).astype(np.int64)
+        seeds_c = rng.integers(0, cols, n).astype(np.int64)
+        seeds_v = rng.uniform(-1.0, 0.5, n)
+        seeds_r[-1], seeds_c[-1] = seeds_r[0], seeds_c[0]  # a cell seeded twice
+        blocked = np.argwhere(~np.isfinite(costs.cost))
+        if n > 2 and len(blocked):
+            seeds_r[1], seeds_c[1] = blocked[0]
+        allowed = np.isfinite(costs.cost) & (rng.random(grid.shape) < 0.97) if trial % 2 else None
+        heap, done = _dijkstra_run(
+            costs.cost, costs.knight_ok, np.isfinite(costs.cost) if allowed is None else allowed,
+            seeds_r, seeds_c, seeds_v, grid.resolution, (0, -1, 0, -1), 8 * costs.cost.size,
+        )  # fmt: skip
+        assert done
+        free = np.isfinite(costs.cost) if allowed is None else allowed
+        _, status = _dijkstra_buckets(
+            costs.cost, costs.knight_ok, free, seeds_r, seeds_c, seeds_v, grid.resolution, 8 * costs.cost.size
+        )
+        assert status == (2 if near_wall_cost == 0.0 and (costs.cost[free] == 0.0).any() else 0)
+        for room in (None, 7):
+            got = _dijkstra(
+                costs.cost, costs.knight_ok, seeds_r, seeds_c, seeds_v, grid.resolution, heap_room=room, allowed=allowed
+            )
+            assert np.array_equal(got, heap), (trial, room)
+        assert np.isfinite(heap).sum() > 50
+        if allowed is None and near_wall_cost == 0.0:
+            seeds = list(zip(seeds_r.tolist(), seeds_c.tolist(), seeds_v.tolist(), strict=True))
+            assert np.array_equal(heap, _dijkstra_heapq(costs.cost, costs.knight_ok, seeds, grid.resolution))
+
+
+def test_the_line_seeds_are_the_array_formulas_bit_for_bit() -> None:
+    """The field's seeds, computed cell by cell, are those of the whole-grid array formulas: the
+    same cells in row-major order, the same values to the bit (-0.0 included)."""
+    from pico_gym.world.grid import CostGrid, _line_seeds
+
+    rng = np.random.default_rng(5)
+    seeded = 0
+    for _ in range(20):
+        res = float(rng.choice([0.05, 0.1]))
+        grid = Grid.covering((0.0, 0.0, 5.0, 4.0), res, margin=0.5)
+        costs = CostGrid.of(grid, rng.uniform(0.0, 5.0, size=(6, 4)))
+        (ax, ay), (bx, by) = rng.uniform(0.0, 5.0, size=(2, 2))
+        length = math.hypot(bx - ax, by - ay)
+        ux, uy = (bx - ax) / length, (by - ay) / length
+        nx, ny = (-uy, ux) if rng.random() < 0.5 else (uy, -ux)
+        xs, ys = grid.centres()
+        along = (xs - ax) * ux + (ys - ay) * uy
+        across = (xs - ax) * nx + (ys - ay) * ny
+        past = (across >= -0.5 * res) & (along >= -res) & (along <= length + res) & np.isfinite(costs.cost)
+        rows, cols = np.nonzero(past)
+        values = -np.maximum(across[rows, cols], 0.0)
+        seed, got_r, got_c, got_v = _line_seeds(costs.cost, grid.x0, grid.y0, res, ax, ay, ux, uy, nx, ny, length)
+        assert np.array_equal(seed, past) and np.array_equal(got_r, rows) and np.array_equal(got_c, cols)
+        assert np.array_equal(got_v.view(np.int64), values.view(np.int64))
+        seeded += len(rows) > 0
+    assert seeded >= 15
+
+
 def test_a_field_from_a_start_is_the_full_field_where_a_robot_can_be_before_the_line() -> None:
     """Escape rooms: the field searched from the start equals the whole field bit for bit on
     every cell it computes, leaves the outside of the building (reached only across the line)

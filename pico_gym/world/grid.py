@@ -123,11 +123,22 @@ def _dijkstra(
     `allowed` (bool, the grid's shape): the search enters only these cells (the rest stay `inf`);
     default: every free cell.
 
-    The heap has room for as many entries as there are cells (plus the seeds) unless `heap_room`
+    Without a window the search takes buckets (`_dijkstra_buckets`: the same distances bit for
+    bit, about 1.8x faster on escape rooms); with one, or when the costs rule buckets out, a heap.
+    Either has room for as many entries as there are cells (plus the seeds) unless `heap_room`
     says otherwise; a search that needs more starts over with twice the room."""
     room = cost.size + len(seeds_r) if heap_room is None else heap_room
     if allowed is None:
         allowed = np.isfinite(cost)
+    if window == (0, -1, 0, -1):  # no early stop: the bucket search, unless the costs rule it out
+        entries = max(1, room)
+        while True:
+            dist, status = _dijkstra_buckets(cost, knight_ok, allowed, seeds_r, seeds_c, seeds_v, res, entries)
+            if status == 0:
+                return dist
+            if status == 2:
+                break
+            entries *= 2
     while True:
         dist, done = _dijkstra_run(cost, knight_ok, allowed, seeds_r, seeds_c, seeds_v, res, window, max(1, room))
         if done:
@@ -211,6 +222,120 @@ def _dijkstra_run(
                     return dist, False
                 dist[rr, cc] = nd
     return dist, True
+
+
+@njit
+def _dijkstra_buckets(
+    cost: FloatArray,
+    knight_ok: np.ndarray,
+    allowed: np.ndarray,
+    seeds_r: np.ndarray,
+    seeds_c: np.ndarray,
+    seeds_v: FloatArray,
+    res: float,
+    room: int,
+) -> tuple[FloatArray, int]:
+    """`_dijkstra_run` without a window, bit for bit, with buckets in place of the heap. Returns
+    the distances and 0, or 1 when `room` entries are too few, or 2 when the costs rule buckets
+    out (a cost of zero or an infinite seed) and the heap must search.
+
+    Every move adds at least the shortest move between two cells of the lowest cost, so the cells
+    whose distances lie within one bucket narrower than that cannot lower one another: settling
+    them in any order gives each cell the smallest of its neighbours' offers, which is what the
+    heap gives it. A cell lowered again gets a new entry (the old one is skipped when its key no
+    longer is the cell's distance; a cell takes at most one entry from each neighbour). The
+    buckets are a ring as wide as the longest move (or the seeds' spread), since an offer lands
+    at most that far ahead."""
+    rows, cols = cost.shape
+    n = rows * cols
+    costs, knight, allow = cost.ravel(), knight_ok.ravel(), allowed.ravel()
+    dist = np.full(n, np.inf)
+    out = dist.reshape(rows, cols)
+    free = np.empty(n, dtype=np.bool_)
+    open_ = np.empty(n, dtype=np.bool_)  # the cells the search may enter
+    c_min, c_max = np.inf, 0.0
+    for k in range(n):
+        v = costs[k]
+        free[k] = np.isfinite(v)
+        open_[k] = free[k] and allow[k]
+        if open_[k]:
+            c_min, c_max = min(c_min, v), max(c_max, v)
+    n_moves = _MOVES.shape[0]
+    half = np.empty(n_moves)  # as in `_dijkstra_run`
+    step = np.empty(n_moves, dtype=np.int64)  # each move's offset in the flat grid
+    for m in range(n_moves):
+        dr, dc = _MOVES[m, 0], _MOVES[m, 1]
+        half[m] = math.sqrt(dr * dr + dc * dc) * res * 0.5
+        step[m] = dr * cols + dc
+    low, high = np.inf, -np.inf  # the seeds' values
+    for i in range(seeds_r.shape[0]):
+        if open_[seeds_r[i] * cols + seeds_c[i]] and seeds_v[i] < np.inf:
+            low, high = min(low, seeds_v[i]), max(high, seeds_v[i])
+    if low == np.inf:
+        return out, 0  # no seed in the open: nothing is reachable
+    if not (c_min > 0.0 and np.isfinite(high - low)):
+        return out, 2
+    # A bucket a hair narrower than the shortest move, so rounding cannot put an offer in its own.
+    width = half[0] * (c_min + c_min) * (1.0 - 1e-6)
+    ring = max(int(math.ceil(half[n_moves - 1] * (c_max + c_max) / width)), int((high - low) / width)) + 3
+    head = np.full(ring, -1, dtype=np.int64)  # each bucket's newest entry; entries chain by `after`
+    after = np.empty(room, dtype=np.int64)
+    keys = np.empty(room)
+    cells = np.empty(room, dtype=np.int64)
+    used = 0  # entries written
+    waiting = 0  # entries not taken yet
+    for i in range(seeds_r.shape[0]):
+        k, v = seeds_r[i] * cols + seeds_c[i], seeds_v[i]
+        if open_[k] and v < dist[k]:
+            if used == room:
+                return out, 1
+            b = int((v - low) / width)
+            keys[used], cells[used], after[used], head[b] = v, k, head[b], used
+            used += 1
+            waiting += 1
+            dist[k] = v
+    b = 0
+    while waiting > 0:
+        e = head[b % ring]
+        head[b % ring] = -1
+        while e >= 0:
+            waiting -= 1
+            d, k = keys[e], cells[e]
+            e = after[e]
+            if d != dist[k]:
+                continue  # lowered since: a newer entry settles it
+            r = k // cols
+            c = k - r * cols
+            cost_here = costs[k]
+            inside = 2 <= r < rows - 2 and 2 <= c < cols - 2  # every move stays on the grid
+            for m in range(n_moves if knight[k] else 8):
+                if inside:
+                    kk = k + step[m]
+                else:
+                    rr, cc = r + _MOVES[m, 0], c + _MOVES[m, 1]
+                    if rr < 0 or rr >= rows or cc < 0 or cc >= cols:
+                        continue
+                    kk = rr * cols + cc
+                if not open_[kk]:
+                    continue
+                if m >= 8:
+                    if not knight[kk]:
+                        continue
+                elif m >= 4 and not (free[k + _MOVES[m, 0] * cols] and free[k + _MOVES[m, 1]]):
+                    continue  # no diagonal squeeze between two blocked cells
+                nd = d + half[m] * (cost_here + costs[kk])
+                if nd < dist[kk]:
+                    nb = int((nd - low) / width)
+                    if nb <= b or nb >= b + ring:
+                        return out, 2  # (cannot happen; the heap would still be right)
+                    if used == room:
+                        return out, 1
+                    keys[used], cells[used], after[used], head[nb % ring] = nd, kk, head[nb % ring], used
+                    used += 1
+                    waiting += 1
+                    dist[kk] = nd
+        b += 1
+    return out, 0
 
 
 @njit
@@ -547,7 +672,6 @@ def geodesic_field(
     """
     res = grid.resolution
     costs = CostGrid.of(grid, segments, comfort_clearance_m, near_wall_cost)
-    xs, ys = grid.centres()
     (ax, ay), (bx, by) = line
     ux, uy = bx - ax, by - ay
     length = math.hypot(ux, uy)
@@ -555,12 +679,7 @@ def geodesic_field(
     nx, ny = -uy, ux  # unit normal of the line
     if (start_side[0] - ax) * nx + (start_side[1] - ay) * ny > 0:
         nx, ny = -nx, -ny  # make the normal point away from the start
-    along = (xs - ax) * ux + (ys - ay) * uy
-    across = (xs - ax) * nx + (ys - ay) * ny
-    # Seeds: cells past the line (within its extent, widened by one cell) or on it.
-    past = (across >= -0.5 * res) & (along >= -res) & (along <= length + res)
-    seeds_r, seeds_c = np.nonzero(past & np.isfinite(costs.cost))
-    seeds_v = -np.maximum(across[seeds_r, seeds_c], 0.0)
+    seed, seeds_r, seeds_c, seeds_v = _line_seeds(costs.cost, grid.x0, grid.y0, res, ax, ay, ux, uy, nx, ny, length)
     if start is None:
         return costs.field_from(seeds_r, seeds_c, seeds_v)
     # Every cell a lookup at the start may read (as `CostGrid.distance_at`'s window).
@@ -568,7 +687,43 @@ def geodesic_field(
     r0 = int(math.floor((start[1] - grid.y0) / res - 0.5))
     near_r, near_c = np.mgrid[r0 - 2 : r0 + 4, c0 - 2 : c0 + 4]
     free = np.isfinite(costs.cost)
-    seed = np.zeros(free.shape, dtype=np.bool_)
-    seed[seeds_r, seeds_c] = True
     allowed = _before_the_line(free, costs.knight_ok, seed, near_r.ravel(), near_c.ravel()) | seed
     return costs.field_from(seeds_r, seeds_c, seeds_v, allowed)
+
+
+@njit
+def _line_seeds(
+    cost: FloatArray,
+    x0: float,
+    y0: float,
+    res: float,
+    ax: float,
+    ay: float,
+    ux: float,
+    uy: float,
+    nx: float,
+    ny: float,
+    length: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, FloatArray]:
+    """The field's seeds: the free cells past the line (within its extent, widened by one cell)
+    or on it, each at minus its distance past the line. Returns their mask and, in row-major
+    order, their rows, columns and values. (`ux, uy`: the line's unit direction from (ax, ay);
+    `nx, ny`: its unit normal pointing away from the start.)"""
+    rows, cols = cost.shape
+    seed = np.zeros((rows, cols), dtype=np.bool_)
+    seeds_r = np.empty(rows * cols, dtype=np.int64)
+    seeds_c = np.empty(rows * cols, dtype=np.int64)
+    seeds_v = np.empty(rows * cols)
+    n = 0
+    for r in range(rows):
+        dy = (y0 + (r + 0.5) * res) - ay  # (as `Grid.centres`)
+        for c in range(cols):
+            dx = (x0 + (c + 0.5) * res) - ax
+            along = dx * ux + dy * uy
+            across = dx * nx + dy * ny
+            if across >= -0.5 * res and along >= -res and along <= length + res and np.isfinite(cost[r, c]):
+                seed[r, c] = True
+                seeds_r[n], seeds_c[n] = r, c
+                seeds_v[n] = -(across if across >= 0.0 else 0.0)  # (as `-np.maximum(across, 0.0)`)
+                n += 1
+    return seed, seeds_r[:n].copy(), seeds_c[:n].copy(), seeds_v[:n].copy()
