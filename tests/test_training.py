@@ -399,7 +399,7 @@ def test_bench_train_prints_its_rows(capsys):
 
     assert main(["bench-train", "--rounds", "1", "--rollouts", "1"]) == 0
     out = capsys.readouterr().out
-    for row in ("toy env (206-float Box observation)", "x the toy", "the wrapper tax", "x DummyVecEnv"):
+    for row in ("toy env (206-float Box observation)", "x the toy", "leaves", "the wrapper tax", "x DummyVecEnv"):
         assert row in out
 
 

@@ -6,6 +6,9 @@ Rows, each the median of interleaved rounds (same load for all):
   as the learning wrapper's (nothing but a Box and a constant reward: the policy's own cost), and
   the same PPO on `pico-gym train`'s envs (PicoEscape-v0, episode seeds, the learning wrapper, a
   Monitor, SB3's DummyVecEnv): the ratio is what the env and its wrappers cost training.
+- The env side inside PPO: the time SB3 waits in each vec env's `step_wait` during those rounds,
+  a robot step, against what 0.95x the toy's fps leaves it (the toy's own plus 1/0.95 - 1 of the
+  toy's whole step).
 - The learning wrapper's cost per step: a wrapped env's step against the bare env's.
 - Stepping only (random actions, raw observations): SB3's DummyVecEnv over single envs against
   `PicoSB3VecEnv` (pico-gym's vector env as an SB3 VecEnv).
@@ -15,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import statistics
+import time
 from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
@@ -53,6 +57,22 @@ def _row(label: str, rates: list[float], unit: str, against: tuple[str, list[flo
         ratio = statistics.median(r / q for r, q in zip(rates, reference, strict=True))
         line += f"   {ratio:.2f}x {name}"
     print(line)
+
+
+def _time_step_wait(venv: Any) -> list[float]:
+    """Add up the seconds `venv.step_wait` takes (what SB3's PPO waits for the env to do each
+    step), in the list returned, without a wrapper layer around `venv`."""
+    spent = [0.0]
+    inner = venv.step_wait
+
+    def step_wait() -> Any:
+        t0 = time.perf_counter()
+        out = inner()
+        spent[0] += time.perf_counter() - t0
+        return out
+
+    venv.step_wait = step_wait
+    return spent
 
 
 def _ppo(config: Any, vec_env: Any, seed: int) -> Any:
@@ -115,20 +135,35 @@ def cmd_bench_train(args: argparse.Namespace) -> int:
     models = [_ppo(config, toy_vec, args.seed)] + [_ppo(config, v, args.seed) for v in pico_vecs.values()]
     for model in models:
         model.learn(per_round // args.rollouts)  # warm-up: JIT caches, allocations
+    clocks = [_time_step_wait(v) for v in [toy_vec, *pico_vecs.values()]]
+    env_us: list[list[float]] = [[] for _ in models]  # each round's step_wait, us a robot step
 
-    def learn(model: Any) -> Callable[[], int]:
+    def learn(k: int) -> Callable[[], int]:
+        model, clock = models[k], clocks[k]
+
         def run() -> int:
-            before = model.num_timesteps
+            before, waited = model.num_timesteps, clock[0]
             model.learn(per_round, reset_num_timesteps=False)
-            return model.num_timesteps - before
+            steps = model.num_timesteps - before
+            env_us[k].append((clock[0] - waited) / steps * 1e6)
+            return steps
 
         return run
 
-    toy_fps, *pico_fps = _interleaved([learn(m) for m in models], args.rounds)
+    toy_fps, *pico_fps = _interleaved([learn(k) for k in range(len(models))], args.rounds)
     _row(f"SB3 PPO, toy env ({size}-float Box observation)", toy_fps, "fps")
     for name, fps in zip(pico_vecs, pico_fps, strict=True):
         what = "DummyVecEnv of wrapped envs" if name == "dummy" else "PicoTrainingVecEnv"
         _row(f"SB3 PPO, pico-gym train, vec_env: {name} ({what})", fps, "fps", ("the toy", toy_fps))
+    # The env's share: what 0.95x the toy's fps leaves the env side, round by round.
+    budget = statistics.median(t + (1.0 / 0.95 - 1.0) * 1e6 / f for t, f in zip(env_us[0], toy_fps, strict=True))
+    sides = ", ".join(
+        f"vec_env: {name} {statistics.median(us):.1f} us" for name, us in zip(pico_vecs, env_us[1:], strict=True)
+    )
+    print(
+        f"{'env side inside PPO (step_wait, a robot step)':<58} toy {statistics.median(env_us[0]):.1f} us, {sides}; "
+        f"0.95x the toy's fps leaves {budget:.1f} us"
+    )
     for v in pico_vecs.values():
         v.close()
 
