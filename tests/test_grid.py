@@ -154,6 +154,14 @@ def test_the_bucket_search_equals_the_heap_search_bit_for_bit(near_wall_cost: fl
             )
             assert np.array_equal(got, heap), (trial, room)
         assert np.isfinite(heap).sum() > 50
+        # Seeds too far apart for buckets (one cell seeded again, 1e12 lower): the heap searches.
+        far_r, far_c = np.append(seeds_r, seeds_r[0]), np.append(seeds_c, seeds_c[0])
+        far_v = np.append(seeds_v, -1e12)
+        if free[seeds_r[0], seeds_c[0]] and (costs.cost[free] > 0.0).all():
+            status = _dijkstra_buckets(costs.cost, costs.knight_ok, free, far_r, far_c, far_v, grid.resolution, 10**6)[
+                1
+            ]
+            assert status == 2
         if allowed is None and near_wall_cost == 0.0:
             seeds = list(zip(seeds_r.tolist(), seeds_c.tolist(), seeds_v.tolist(), strict=True))
             assert np.array_equal(heap, _dijkstra_heapq(costs.cost, costs.knight_ok, seeds, grid.resolution))

@@ -237,7 +237,8 @@ def _dijkstra_buckets(
 ) -> tuple[FloatArray, int]:
     """`_dijkstra_run` without a window, bit for bit, with buckets in place of the heap. Returns
     the distances and 0, or 1 when `room` entries are too few, or 2 when the costs rule buckets
-    out (a cost of zero or an infinite seed) and the heap must search.
+    out (a cost of zero, an infinite seed, or costs or seeds so far apart that the ring of
+    buckets would outgrow the grid) and the heap must search.
 
     Every move adds at least the shortest move between two cells of the lowest cost, so the cells
     whose distances lie within one bucket narrower than that cannot lower one another: settling
@@ -277,7 +278,10 @@ def _dijkstra_buckets(
         return out, 2
     # A bucket a hair narrower than the shortest move, so rounding cannot put an offer in its own.
     width = half[0] * (c_min + c_min) * (1.0 - 1e-6)
-    ring = max(int(math.ceil(half[n_moves - 1] * (c_max + c_max) / width)), int((high - low) / width)) + 3
+    span = max(math.ceil(half[n_moves - 1] * (c_max + c_max) / width), (high - low) / width)
+    if span > 4 * n + 64:
+        return out, 2  # costs or seeds too far apart for a ring of sane size: the heap searches
+    ring = int(span) + 3
     head = np.full(ring, -1, dtype=np.int64)  # each bucket's newest entry; entries chain by `after`
     after = np.empty(room, dtype=np.int64)
     keys = np.empty(room)
