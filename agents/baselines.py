@@ -95,3 +95,13 @@ class NeverAnnounces(Agent):
 
     def overlay(self) -> Overlay | None:
         return self.agent.overlay()
+
+
+def build_wall_follow(env: Any, **kwargs: Any) -> WallFollowAgent:
+    """The wall follower for an env's robot (`make_agent("wall-follow", env)`)."""
+    return WallFollowAgent(RobotSpec.of(env), **kwargs)
+
+
+def build_random(env: Any, **kwargs: Any) -> RandomAgent:
+    """The random agent for an env's robot (`make_agent("random", env)`)."""
+    return RandomAgent(RobotSpec.of(env), **kwargs)

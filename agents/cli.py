@@ -16,8 +16,9 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from pico_gym.agents import AGENTS
+from pico_gym.agents.registry import AGENT_ENTRIES
 from pico_gym.extras import require
+from pico_gym.registry import DEFAULT_ENV_ID, TASKS, task_info
 
 
 def _set_option(key: str, text: str, env_id: str) -> Any:
@@ -45,7 +46,7 @@ def _set_option(key: str, text: str, env_id: str) -> Any:
     return value
 
 
-def _config_fields(env_id: str = "PicoEscape-v0") -> dict[str, Any]:
+def _config_fields(env_id: str = DEFAULT_ENV_ID) -> dict[str, Any]:
     """Every field name of an env's config (at any depth) -> its default value."""
     import gymnasium as gym
 
@@ -89,9 +90,7 @@ def _has_display() -> bool:
 
 
 def _add_env(p: argparse.ArgumentParser) -> None:
-    import pico_gym
-
-    p.add_argument("--env", default="PicoEscape-v0", choices=pico_gym.ENV_IDS, help="the environment id")
+    p.add_argument("--env", default=DEFAULT_ENV_ID, choices=tuple(TASKS), help="the environment id")
 
 
 def _add_workers(p: argparse.ArgumentParser) -> None:
@@ -107,7 +106,7 @@ def _add_workers(p: argparse.ArgumentParser) -> None:
 
 def _common(p: argparse.ArgumentParser) -> None:
     _add_env(p)
-    p.add_argument("--agent", choices=AGENTS, default="classic", help="the agent")
+    p.add_argument("--agent", choices=tuple(AGENT_ENTRIES), help="the agent (default: the task's own)")
     where = p.add_mutually_exclusive_group()
     where.add_argument("--map", help="a shipped map (default: generated rooms)")
     where.add_argument("--map-path", help="a map file")
@@ -159,7 +158,12 @@ POLICY_HELP = (
 
 
 def _agent_kwargs(args: argparse.Namespace, agent: str) -> dict[str, Any]:
-    return {"path": args.policy} if agent in ("ppo", "ppo-pointgoal", "hybrid") and args.policy else {}
+    return {"path": args.policy} if AGENT_ENTRIES[agent].policy and args.policy else {}
+
+
+def _agent(args: argparse.Namespace) -> str:
+    """The agent asked for, else the task's default (`TaskInfo.default_agent`)."""
+    return args.agent or task_info(args.env).default_agent
 
 
 def cmd_run(args: argparse.Namespace) -> int:
@@ -177,6 +181,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     want_frames = bool(args.gif or args.video or args.png)
     mode = "human" if args.render == "human" else ("rgb_array" if want_frames else None)
     env = gym.make(args.env, render_mode=mode, **_env_options(args))
+    args.agent = _agent(args)
     agent = make_agent(args.agent, env, **_agent_kwargs(args, args.agent))
     env.unwrapped.set_overlay(agent.overlay)
     frames: list[Any] = []
@@ -228,6 +233,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
     if args.json and not Path(args.json).resolve().parent.is_dir():
         raise ValueError(f"--json {args.json}: folder {Path(args.json).resolve().parent} does not exist")
     seeds = range(args.seed, args.seed + args.episodes)
+    args.agent = _agent(args)
     with tqdm(total=args.episodes, desc=f"{args.agent}", unit="ep", file=sys.stderr, disable=args.quiet) as bar:
         records = run_episodes(
             args.agent,
@@ -240,7 +246,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
             args.ray,
             reset_options,
         )
-    summary = summarize(records)
+    summary = summarize(records, args.env)
     print(format_summary(args.agent, summary))
     last = args.seed + args.episodes - 1
     print(
@@ -293,22 +299,29 @@ def cmd_compare(args: argparse.Namespace) -> int:
     from pico_gym.agents.compare import Episodes, compare, markdown_table
 
     agents = [a.strip() for a in args.agents.split(",") if a.strip()]
-    unknown = [a for a in agents if a not in AGENTS]
+    unknown = [a for a in agents if a not in AGENT_ENTRIES]
     if unknown or not agents:
-        print(f"pico-gym compare: unknown agent(s) {unknown}; agents: {', '.join(AGENTS)}", file=sys.stderr)
+        print(f"pico-gym compare: unknown agent(s) {unknown}; agents: {', '.join(AGENT_ENTRIES)}", file=sys.stderr)
         return 2
     episodes = Episodes.suite(args.suite, args.episodes, args.seed, _env_options(args), args.env)
     total = len(agents) * sum(len(seeds) for _, seeds in episodes.groups)
     kwargs = {a: _agent_kwargs(args, a) for a in agents}
     with tqdm(total=total, desc="compare", unit="ep", file=sys.stderr, disable=args.quiet) as bar:
         summaries = compare(agents, episodes, args.out, kwargs, args.workers, args.trajectories, bar.update, args.ray)
-    print(markdown_table(summaries, args.env == "PicoHospital-v0"))
+    print(markdown_table(summaries, args.env))
+    figures = task_info(args.env).load_metrics().figures
     print(
         f"wrote {args.out}/results.md, results.json, results.csv, success_times.png, success_bumps.png"
-        + (", legs.png, bumps.png" if args.env == "PicoHospital-v0" else "")
+        + "".join(f", {name}.png" for name in figures)
         + (", trajectories.png" if args.trajectories else "")
     )
     return 0
+
+
+def _suite_help() -> str:
+    """What `--suite` takes: every task's suites, from the registry."""
+    own = "; ".join(f"{s.name} ({info.env_id}): {s.description}" for info in TASKS.values() for s in info.suites)
+    return "generated: generated worlds; maps: the task's shipped maps; all: both" + (f"; {own}" if own else "")
 
 
 def add_compare(sub: argparse._SubParsersAction) -> None:
@@ -317,13 +330,7 @@ def add_compare(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--agents", default="classic,ppo,wall-follow,random", help="comma-separated agent names")
     p.add_argument("--episodes", type=int, default=50, help="episodes per suite part (rooms, or starts per map)")
     p.add_argument("--seed", type=int, default=1000, help="first seed (PPO trains on seeds >= 1,000,000)")
-    p.add_argument(
-        "--suite",
-        choices=("generated", "maps", "all", "hospital"),
-        default="generated",
-        help="generated worlds, the task's shipped maps, both; hospital: generated hospitals, hospital_2019 "
-        "with a closed door, 2 boxes and a person, and hospital_2021 (PicoHospital-v0)",
-    )
+    p.add_argument("--suite", default="generated", help=_suite_help())
     p.add_argument("--out", default="compare", help="output directory")
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="an env option (repeatable)")
     p.add_argument("--policy", help=POLICY_HELP)

@@ -27,47 +27,31 @@ import gymnasium as gym
 import numpy as np
 
 import pico_gym  # noqa: F401
-from pico_gym.agents import NEVER_ANNOUNCING, make_agent
-from pico_gym.agents.evaluation import (
-    DEFAULT_ENV_ID,
-    EpisodeRecord,
-    Summary,
-    run_episode,
-    run_episodes,
-    summarize,
-)
+from pico_gym.agents.evaluation import EpisodeRecord, Summary, run_episode, run_episodes, summarize
+from pico_gym.agents.registry import AGENT_ENTRIES, make_agent
 from pico_gym.extras import require
-from pico_gym.world.catalog import shipped_maps
-
-SUITES = ("generated", "maps", "all", "hospital")
-# The "hospital" suite (PicoHospital-v0): the issue's three settings, each a group of episodes.
-HOSPITAL_SUITE: dict[str, dict[str, Any]] = {
-    "hospital_2019 busy": {"map": "hospital_2019", "n_boxes": (2, 2), "n_movers": (1, 1), "closed_doors": (1, 1)},
-    "hospital_2021": {"map": "hospital_2021"},
-}
-# Trajectory colours per agent, fixed so figures read the same across runs.
-COLOURS = {"classic": "C0", "ppo": "C1", "wall-follow": "C2", "random": "C7", "hybrid": "C3", "ppo-pointgoal": "C4"}
+from pico_gym.registry import DEFAULT_ENV_ID, Suite, SuiteGroup, task_info
 
 
-def escape_maps() -> list[str]:
-    """The shipped escape-room maps."""
-    return sorted(name for name in shipped_maps() if name.startswith("escape"))
-
-
-def task_maps(env_id: str) -> list[str]:
-    """The shipped maps of an env's task (escape rooms, or hospitals)."""
-    prefix = "hospital" if "Hospital" in env_id else "escape"
-    return sorted(name for name in shipped_maps() if name.startswith(prefix))
+def colour(agent: str) -> str:
+    """An agent's colour in figures (its registration's), fixed so figures read the same across runs."""
+    entry = AGENT_ENTRIES.get(agent)
+    return entry.colour if entry is not None else "C4"
 
 
 @dataclass(frozen=True)
 class Episodes:
-    """Which episodes to run: (map or None for generated rooms, seeds)."""
+    """Which episodes to run: groups (a label and the env kwargs of its episodes), each on seeds.
 
-    groups: tuple[tuple[str | None, tuple[int, ...]], ...]
+    Attributes:
+        groups: (group, seeds) pairs.
+        env_options: the user's env options, under every group's own.
+        env_id: the env.
+    """
+
+    groups: tuple[tuple[SuiteGroup, tuple[int, ...]], ...]
     env_options: dict[str, Any] = field(default_factory=dict)
     env_id: str = DEFAULT_ENV_ID
-    presets: dict[str, dict[str, Any]] = field(default_factory=dict)  # group name -> its env kwargs
 
     @staticmethod
     def suite(
@@ -77,31 +61,20 @@ class Episodes:
         env_options: dict[str, Any] | None = None,
         env_id: str = DEFAULT_ENV_ID,
     ) -> Episodes:
-        """`episodes` generated worlds and/or `episodes` starts on each shipped map of the env's task
-        (the "hospital" suite: generated hospitals and `HOSPITAL_SUITE`'s settings)."""
-        if name not in SUITES:
-            raise ValueError(f"suite must be one of {SUITES}, got {name!r}")
-        seeds = tuple(range(seed, seed + episodes))
-        if name == "hospital":
-            if env_id != "PicoHospital-v0":
-                raise ValueError(f"the hospital suite is PicoHospital-v0's; got {env_id}")
-            groups_h = ((None, seeds), *((k, seeds) for k in HOSPITAL_SUITE))
-            return Episodes(groups_h, dict(env_options or {}), env_id, dict(HOSPITAL_SUITE))
-        groups: list[tuple[str | None, tuple[int, ...]]] = []
-        if name in ("generated", "all"):
-            groups.append((None, seeds))
-        if name in ("maps", "all"):
-            groups += [(m, seeds) for m in task_maps(env_id)]
-        return Episodes(tuple(groups), dict(env_options or {}), env_id)
+        """A suite of the env's task (`TaskInfo.suite`: "generated", "maps", "all", or the task's
+        own), each group on the seeds `seed`.. (`episodes` of them)."""
+        return Episodes.of(task_info(env_id).suite(name), range(seed, seed + episodes), env_options, env_id)
 
-    def env_kwargs(self, map_name: str | None) -> dict[str, Any]:
-        if map_name in self.presets:
-            return {**self.env_options, **self.presets[map_name]}
-        if map_name is None:
-            return dict(self.env_options)
-        if self.env_id == "PicoEscape-v0":
-            return {**self.env_options, "map": map_name, "sample_start": True}
-        return {**self.env_options, "map": map_name}
+    @staticmethod
+    def of(
+        suite: Suite, seeds: range, env_options: dict[str, Any] | None = None, env_id: str = DEFAULT_ENV_ID
+    ) -> Episodes:
+        """Every group of a suite on the same seeds."""
+        return Episodes(tuple((g, tuple(seeds)) for g in suite.groups), dict(env_options or {}), env_id)
+
+    def env_kwargs(self, group: SuiteGroup) -> dict[str, Any]:
+        """What `gym.make` gets for a group's episodes: the user's options, then the group's."""
+        return {**self.env_options, **group.env_kwargs}
 
 
 def run_comparison(
@@ -117,11 +90,11 @@ def run_comparison(
     results: dict[str, list[EpisodeRecord]] = {}
     for name in agents:
         records: list[EpisodeRecord] = []
-        for map_name, seeds in episodes.groups:
+        for group, seeds in episodes.groups:
             records += run_episodes(
                 name,
                 seeds,
-                episodes.env_kwargs(map_name),
+                episodes.env_kwargs(group),
                 agent_kwargs.get(name),
                 workers,
                 progress,
@@ -151,17 +124,10 @@ def _seconds(value: float) -> str:
     return "-" if math.isnan(value) else f"{value:.1f} s"
 
 
-# The hospital's columns besides COLUMNS' (task-neutral figures of the hospital issue).
-HOSPITAL_COLUMNS = [
-    ("progress", lambda s: f"{100 * s.progress_mean:.1f} %"),
-    ("bumps by kind", lambda s: ", ".join(f"{k} {n}" for k, n in s.bumps_by_kind.items() if n) or "-"),
-    ("s within 0.5 m of a mover", lambda s: f"{s.near_mover_s_mean:.1f}"),
-]
-
-
-def markdown_table(summaries: dict[str, Summary], hospital: bool = False) -> str:
-    """A Markdown table, one row per agent (with `hospital`, the hospital's columns too)."""
-    columns = COLUMNS + (HOSPITAL_COLUMNS if hospital else [])
+def markdown_table(summaries: dict[str, Summary], env_id: str | None = None) -> str:
+    """A Markdown table, one row per agent (with `env_id`, its task's columns too)."""
+    extra = list(task_info(env_id).load_metrics().columns) if env_id is not None else []
+    columns = COLUMNS + extra
     header = "| agent | episodes | " + " | ".join(c for c, _ in columns) + " |"
     rule = "|---|---:|" + "---:|" * len(columns)
     rows = [f"| {a} | {s.episodes} | " + " | ".join(f(s) for _, f in columns) + " |" for a, s in summaries.items()]
@@ -170,15 +136,14 @@ def markdown_table(summaries: dict[str, Summary], hospital: bool = False) -> str
 
 def group_tables(results: dict[str, list[EpisodeRecord]], episodes: Episodes) -> str:
     """One table per group of episodes (a map, a setting), for suites of several groups."""
-    hospital = episodes.env_id == "PicoHospital-v0"
     parts, start = [], 0
-    for name, seeds in episodes.groups:
+    for group, seeds in episodes.groups:
         stop = start + len(seeds)
-        summaries = {agent: summarize(records[start:stop]) for agent, records in results.items()}
+        summaries = {agent: summarize(records[start:stop], episodes.env_id) for agent, records in results.items()}
         parts += [
-            f"### {name or 'generated'} (seeds {seeds[0]}..{seeds[-1]})",
+            f"### {group.label} (seeds {seeds[0]}..{seeds[-1]})",
             "",
-            markdown_table(summaries, hospital),
+            markdown_table(summaries, episodes.env_id),
             "",
         ]
         start = stop
@@ -190,10 +155,12 @@ def write_results(
 ) -> dict[str, Summary]:
     """results.md, results.json and results.csv; returns the summaries."""
     out.mkdir(parents=True, exist_ok=True)
-    summaries = {name: summarize(records) for name, records in results.items()}
-    table = markdown_table(summaries, settings.get("env_id") == "PicoHospital-v0")
+    env_id = settings.get("env_id")
+    summaries = {name: summarize(records, env_id) for name, records in results.items()}
+    table = markdown_table(summaries, env_id)
     if episodes is not None and len(episodes.groups) > 1:
         table += "\n\nBy group:\n\n" + group_tables(results, episodes)
+    figures = task_info(env_id).load_metrics().figures if env_id is not None else ()
     lines = [
         "# pico-gym compare",
         "",
@@ -203,11 +170,7 @@ def write_results(
         table,
         "",
         "![escape times](success_times.png) ![success and bumps](success_bumps.png)",
-        *(
-            ["", "![time per leg](legs.png) ![where the bumps began](bumps.png)"]
-            if settings.get("env_id") == "PicoHospital-v0"
-            else []
-        ),
+        *(["", "![time per leg](legs.png) ![where the bumps began](bumps.png)"] if "legs" in figures else []),
         "",
         "![trajectories](trajectories.png)",
         "",
@@ -219,20 +182,30 @@ def write_results(
         "episodes": [r.to_dict() for records in results.values() for r in records],
     }
     (out / "results.json").write_text(json.dumps(payload, indent=1) + "\n")
-    fields = list(EpisodeRecord.__dataclass_fields__) + ["spl", "sct"]
-    with (out / "results.csv").open("w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=fields)
-        writer.writeheader()
-        for records in results.values():
-            for r in records:
-                writer.writerow({**r.to_dict(), "spl": r.spl, "sct": r.sct})
+    write_csv(out / "results.csv", [r for records in results.values() for r in records])
     return summaries
+
+
+def write_csv(path: Path, records: list[EpisodeRecord]) -> None:
+    """One row per episode: the core's fields, the task's block (as `metrics.NAME`), SPL and SCT."""
+    core = [f for f in EpisodeRecord.__dataclass_fields__ if f != "metrics"]
+    task: list[str] = []
+    for r in records:
+        task += [k for k in r.metrics if k not in task]
+    with path.open("w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=core + [f"metrics.{k}" for k in task] + ["spl", "sct"])
+        writer.writeheader()
+        for r in records:
+            row = {k: v for k, v in r.to_dict().items() if k != "metrics"}
+            row.update({f"metrics.{k}": v for k, v in r.metrics.items()})
+            writer.writerow({**row, "spl": r.spl, "sct": r.sct})
 
 
 def _describe(settings: dict[str, Any]) -> str:
     parts = []
+    worlds = task_info(settings["env_id"]).worlds if settings.get("env_id") else "rooms"
     for group in settings["episodes"]:
-        where = group["map"] or "generated rooms"
+        where = f"generated {worlds}" if group["group"] == "generated" else group["group"]
         parts.append(f"{where}, seeds {group['seeds'][0]}..{group['seeds'][-1]}")
     options = settings.get("env_options") or {}
     return "; ".join(parts) + (f"; env options {options}" if options else "")
@@ -248,7 +221,7 @@ def _box_figure(path: Path, names: list[str], values: list[list[float]], unit: s
         ax.boxplot([values[i] for i in positions], positions=positions, widths=0.5, showfliers=True)
         for i in positions:
             jitter = np.linspace(-0.15, 0.15, len(values[i]))
-            ax.scatter(i + jitter, values[i], s=6, alpha=0.4, color=COLOURS.get(names[i], "C4"))
+            ax.scatter(i + jitter, values[i], s=6, alpha=0.4, color=colour(names[i]))
     ax.set_xticks(range(len(names)), [f"{n}\n({len(v)} {unit})" for n, v in zip(names, values, strict=True)])
     ax.set_ylabel(ylabel)
     ax.set_title(title)
@@ -290,9 +263,18 @@ def plot_results(out: Path, results: dict[str, list[EpisodeRecord]], summaries: 
     return [out / "success_times.png", out / "success_bumps.png"]
 
 
-def plot_hospital(out: Path, results: dict[str, list[EpisodeRecord]], episodes: Episodes) -> list[Path]:
-    """The hospital's figures: the time each leg of the order took (successful and unfinished
-    episodes alike), and where the bumps began on each fixed map of the suite."""
+def plot_legs(out: Path, results: dict[str, list[EpisodeRecord]]) -> Path:
+    """The time each leg of a task's order took (records whose task block has `leg_done_s`),
+    successful and unfinished episodes alike."""
+    names = list(results)
+    legs = [[float(d) for r in results[n] for d in np.diff([0.0, *r.metrics["leg_done_s"]])] for n in names]
+    _box_figure(out / "legs.png", names, legs, "legs", "time per leg [s]",
+                "Time from one cabinet to the next (the first leg from the start)")  # fmt: skip
+    return out / "legs.png"
+
+
+def plot_bumps(out: Path, results: dict[str, list[EpisodeRecord]], episodes: Episodes) -> Path:
+    """Where the bumps began, on each group of the suite played on a fixed map."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -301,38 +283,32 @@ def plot_hospital(out: Path, results: dict[str, list[EpisodeRecord]], episodes: 
     from pico_gym.world.catalog import load_shipped
 
     names = list(results)
-    legs = [[float(d) for r in results[n] for d in np.diff([0.0, *r.leg_done_s])] for n in names]
-    _box_figure(out / "legs.png", names, legs, "legs", "time per leg [s]",
-                "Time from one cabinet to the next (the first leg from the start)")  # fmt: skip
-
-    fixed = [(name, kw["map"]) for name, kw in episodes.presets.items() if "map" in kw]
+    fixed = [(g.label, g.fixed_map) for g, _ in episodes.groups if g.fixed_map is not None]
     fig, axes = plt.subplots(1, max(1, len(fixed)), figsize=(5 * max(1, len(fixed)), 5), dpi=110, squeeze=False)
     start = {name: 0 for name in names}
     for group, seeds in episodes.groups:
-        index = next((i for i, (g, _) in enumerate(fixed) if g == group), None)
+        index = next((i for i, (g, _) in enumerate(fixed) if g == group.label), None)
         for n in names:
             chunk = results[n][start[n] : start[n] + len(seeds)]
             start[n] += len(seeds)
             if index is None:
                 continue
             xy = np.array([p for r in chunk for p in r.bump_xy]).reshape(-1, 2)
-            axes[0, index].plot(
-                xy[:, 0], xy[:, 1], "x", color=COLOURS.get(n, "C4"), ms=7, mew=2, label=f"{n} ({len(xy)})"
-            )
-    for i, (group, map_name) in enumerate(fixed):
+            axes[0, index].plot(xy[:, 0], xy[:, 1], "x", color=colour(n), ms=7, mew=2, label=f"{n} ({len(xy)})")
+    for i, (label, map_name) in enumerate(fixed):
         ax = axes[0, i]
         world = load_shipped(map_name)
         for x0, y0, x1, y1 in np.vstack([world.wall_segments, world.cabinet_segments]):
             ax.plot([x0, x1], [y0, y1], color="black", lw=1)
         ax.set_aspect("equal")
-        ax.set_title(f"bumps, {group}", fontsize=9)
+        ax.set_title(f"bumps, {label}", fontsize=9)
         ax.legend(fontsize=7, loc="best")
         ax.set_xticks([])
         ax.set_yticks([])
     fig.tight_layout()
     fig.savefig(out / "bumps.png")
     plt.close(fig)
-    return [out / "legs.png", out / "bumps.png"]
+    return out / "bumps.png"
 
 
 def plot_trajectories(
@@ -342,24 +318,25 @@ def plot_trajectories(
     n_rooms: int = 3,
     agent_kwargs: dict[str, dict[str, Any]] | None = None,
 ) -> Path:
-    """Each agent's true path in the first `n_rooms` episodes (replayed: episodes are deterministic)."""
+    """Each agent's true path in the first `n_rooms` episodes (replayed: episodes are deterministic);
+    in a suite of several groups, the first episode of each."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     agent_kwargs = agent_kwargs or {}
-    if episodes.presets:  # a suite of settings: the first episode of each
-        picks = [(m, seeds[0]) for m, seeds in episodes.groups][:n_rooms]
+    if len(episodes.groups) > 1:
+        picks = [(g, seeds[0]) for g, seeds in episodes.groups][:n_rooms]
     else:
-        picks = [(m, s) for m, seeds in episodes.groups for s in seeds][:n_rooms]
+        picks = [(g, s) for g, seeds in episodes.groups for s in seeds][:n_rooms]
     cols = min(3, len(picks))
     rows = -(-len(picks) // cols)
     fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 4.4 * rows), dpi=110, squeeze=False)
     for ax in axes.flat[len(picks) :]:
         ax.axis("off")
-    for ax, (map_name, seed) in zip(axes.flat, picks, strict=False):
-        env = gym.make(episodes.env_id, **episodes.env_kwargs(map_name))
+    for ax, (group, seed) in zip(axes.flat, picks, strict=False):
+        env = gym.make(episodes.env_id, **episodes.env_kwargs(group))
         world = None
         for name in agents:
             agent = make_agent(name, env, **agent_kwargs.get(name, {}))
@@ -367,7 +344,7 @@ def plot_trajectories(
             world = env.unwrapped.episode.map
             path = np.array([(p.x, p.y) for p in env.unwrapped.trajectory])
             label = f"{name}: {record.termination_reason} {record.time_s:.0f} s"
-            ax.plot(path[:, 0], path[:, 1], lw=1.4, color=COLOURS.get(name, "C4"), label=label)
+            ax.plot(path[:, 0], path[:, 1], lw=1.4, color=colour(name), label=label)
             if record.bumps:
                 ax.plot(*path[-1], "x", color="red", ms=8, mew=2)
         assert world is not None
@@ -379,7 +356,7 @@ def plot_trajectories(
         start = env.unwrapped.trajectory[0]
         ax.plot(start.x, start.y, "o", color="black", ms=5)
         ax.set_aspect("equal")
-        ax.set_title(f"{map_name or 'generated'}, seed {seed}", fontsize=9)
+        ax.set_title(f"{group.label}, seed {seed}", fontsize=9)
         ax.legend(fontsize=7, loc="best")
         ax.set_xticks([])
         ax.set_yticks([])
@@ -408,9 +385,10 @@ def compare(
     require("matplotlib", "plots", "pico-gym compare's plots")
     if episodes.env_options.get("arrival") == "announce":
         # The floor baselines play the announcing episodes too, never announcing.
+        silent = [n for n in agents if AGENT_ENTRIES[n].may_stay_silent]
         agent_kwargs = {
             **(agent_kwargs or {}),
-            **{n: {"never_announce": True, **(agent_kwargs or {}).get(n, {})} for n in agents if n in NEVER_ANNOUNCING},
+            **{n: {"never_announce": True, **(agent_kwargs or {}).get(n, {})} for n in silent},
         }
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -424,12 +402,17 @@ def compare(
         "agent_kwargs": {k: {kk: str(vv) for kk, vv in v.items()} for k, v in (agent_kwargs or {}).items()},
         "env_id": episodes.env_id,
         "env_options": episodes.env_options,
-        "episodes": [{"map": m, "seeds": list(s)} for m, s in episodes.groups],
+        "episodes": [
+            {"group": g.label, "env_kwargs": dict(g.env_kwargs), "seeds": list(s)} for g, s in episodes.groups
+        ],
     }
     summaries = write_results(out, results, settings, episodes)
     plot_results(out, results, summaries)
-    if episodes.env_id == "PicoHospital-v0":
-        plot_hospital(out, results, episodes)
+    figures = task_info(episodes.env_id).load_metrics().figures
+    if "legs" in figures:
+        plot_legs(out, results)
+    if "bumps" in figures:
+        plot_bumps(out, results, episodes)
     if n_rooms > 0:
         plot_trajectories(out, agents, episodes, n_rooms, agent_kwargs)
     return summaries

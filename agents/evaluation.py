@@ -24,6 +24,8 @@ import numpy as np
 
 import pico_gym  # noqa: F401  (registers the env ids)
 from pico_gym.agents import make_agent
+from pico_gym.metrics import max_of, median_of
+from pico_gym.registry import DEFAULT_ENV_ID, env_id_of, task_info
 
 # The competition's speed limit: the oracle drives its path at this speed [m/s].
 ORACLE_SPEED_MPS = 0.5
@@ -31,7 +33,8 @@ ORACLE_SPEED_MPS = 0.5
 
 @dataclass(frozen=True)
 class EpisodeRecord:
-    """One episode's outcome."""
+    """One episode's outcome: the common core, and the task's own block (`metrics`: what the
+    task's `EpisodeMetrics` collects, e.g. the hospital's legs, the explore task's parking)."""
 
     agent: str
     seed: int
@@ -46,25 +49,14 @@ class EpisodeRecord:
     act_ms: float
     progress: float = math.nan  # fraction of the task done (the hospital: of the cabinet order)
     bumps_by_kind: dict[str, int] = dataclasses.field(default_factory=dict)
-    false_announcements: int = 0
     # None for agents without belief() (None, not nan: records compare equal and write valid JSON)
     localise_time_s: float | None = None  # when the agent's belief() first gave a pose
     localise_error_m: float | None = None  # its error then (position) ...
     localise_error_deg: float | None = None  # ... and heading
     max_localise_error_m: float | None = None  # the worst position error of the belief over the run
     near_mover_s: float = 0.0  # time the robot's centre spent within 0.5 m of a mover's box
-    # the hospital: when each cabinet of the order was counted [s]; where bumps began (x, y)
-    leg_done_s: list[float] = dataclasses.field(default_factory=list)
-    bump_xy: list[tuple[float, float]] = dataclasses.field(default_factory=list)
-    # PicoExplore-v0 (None elsewhere)
-    parked: bool | None = None
-    explored: bool | None = None  # every room seen to the task's explore_coverage when it parked
-    coverage: float | None = None
-    min_room_coverage: float | None = None
-    time_to_park_s: float | None = None
-    parking_heading_deg: float | None = None
-    parking_lateral_m: float | None = None
-    map_iou: float | None = None  # the agent's map_belief() against the true free space, at the end
+    bump_xy: list[tuple[float, float]] = dataclasses.field(default_factory=list)  # where bumps began (x, y)
+    metrics: dict[str, Any] = dataclasses.field(default_factory=dict)  # the task's own block
 
     @property
     def spl(self) -> float:
@@ -78,6 +70,44 @@ class EpisodeRecord:
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)
 
+    @staticmethod
+    def from_dict(data: dict[str, Any]) -> EpisodeRecord:
+        """A record from its `to_dict` (as JSON gives it back: pairs as lists)."""
+        fields = {f.name for f in dataclasses.fields(EpisodeRecord)}
+        unknown = sorted(set(data) - fields)
+        if unknown:
+            raise ValueError(f"an episode record has no field(s) {unknown}; fields: {sorted(fields)}")
+        return EpisodeRecord(**{**data, "bump_xy": [tuple(p) for p in data.get("bump_xy", [])]})
+
+
+class _Localisation:
+    """The agent's belief (if it has one) scored against the truth over an episode."""
+
+    def __init__(self, agent: Any, dt_s: float) -> None:
+        self.belief = getattr(agent, "belief", None)
+        self.dt_s = dt_s
+        self.first: tuple[float, float, float] | None = None  # (time, position error, heading error)
+        self.worst: float | None = None
+
+    def score(self, truth: Any, steps: int) -> None:
+        estimate = self.belief() if self.belief is not None else None
+        if estimate is None:
+            return
+        error = math.hypot(estimate.x - truth.x, estimate.y - truth.y)
+        self.worst = error if self.worst is None else max(self.worst, error)
+        if self.first is None:
+            heading = abs(math.remainder(estimate.theta - truth.theta, 2 * math.pi))
+            self.first = (steps * self.dt_s, error, math.degrees(heading))
+
+    def fields(self) -> dict[str, float | None]:
+        first = self.first
+        return {
+            "localise_time_s": first[0] if first else None,
+            "localise_error_m": first[1] if first else None,
+            "localise_error_deg": first[2] if first else None,
+            "max_localise_error_m": self.worst,
+        }
+
 
 def run_episode(
     env: gym.Env,
@@ -90,31 +120,22 @@ def run_episode(
     """Play one seeded episode to its end (`options`: the env's reset options)."""
     obs, info = env.reset(seed=seed, options=options)
     agent.reset(obs, info)
-    order = getattr(info.get("task"), "cabinet_order", None)
-    belief = getattr(agent, "belief", None)
+    metrics = task_info(env_id_of(env)).load_metrics()()
+    metrics.reset(env, info)
+    dt = env.unwrapped.config.dt_s
+    localisation = _Localisation(agent, dt)
     times = []
-    localised: tuple[float, float, float] | None = None  # (time, position error, heading error)
-    worst: float | None = None
     near_mover = 0.0
-    legs: list[float] = []
     bumps_seen = 0
     bump_xy: list[tuple[float, float]] = []
-    dt = env.unwrapped.config.dt_s
     while True:
         truth = env.unwrapped.pose  # privileged: scores the agent, never reaches it
         t0 = time.perf_counter()
         action = agent.act(obs)
         times.append(time.perf_counter() - t0)
-        estimate = belief() if belief is not None else None
-        if estimate is not None:
-            error = math.hypot(estimate.x - truth.x, estimate.y - truth.y)
-            worst = error if worst is None else max(worst, error)
-            if localised is None:
-                heading = abs(math.remainder(estimate.theta - truth.theta, 2 * math.pi))
-                localised = (len(times) * dt, error, math.degrees(heading))
+        localisation.score(truth, len(times))
         obs, _, terminated, truncated, info = env.step(action)
-        if info.get("cabinets_done", 0) > len(legs):
-            legs.append(round(float(info["sim_time"]), 6))
+        metrics.step(env, info)
         if info["bumps"] > bumps_seen:
             bumps_seen = int(info["bumps"])
             bump_xy.append((round(float(info["pose"][0]), 4), round(float(info["pose"][1]), 4)))
@@ -125,8 +146,6 @@ def run_episode(
             on_step()
         if terminated or truncated:
             break
-    progress = float(info["cabinets_done"]) / len(order) if order else float(bool(info["is_success"]))
-    explore = _explore_metrics(env, agent, info) if "parked" in info else {}
     return EpisodeRecord(
         agent=agent_name or getattr(agent, "name", "agent"),
         seed=seed,
@@ -139,34 +158,13 @@ def run_episode(
         shortest_path_length=float(info["shortest_path_length"]),
         min_clearance=float(info["min_clearance"]),
         act_ms=1e3 * statistics.median(times),
-        progress=progress,
+        progress=metrics.progress(info),
         bumps_by_kind={k: int(v) for k, v in info.get("bumps_by_kind", {}).items()},
-        false_announcements=int(info.get("false_announcements", 0)),
-        localise_time_s=localised[0] if localised else None,
-        localise_error_m=localised[1] if localised else None,
-        localise_error_deg=localised[2] if localised else None,
-        max_localise_error_m=worst,
+        **localisation.fields(),
         near_mover_s=round(near_mover, 6),
-        leg_done_s=legs,
         bump_xy=bump_xy,
-        **explore,
+        metrics=metrics.finish(env, info, agent),
     )
-
-
-def _explore_metrics(env: gym.Env, agent: Any, info: dict[str, Any]) -> dict[str, Any]:
-    """PicoExplore-v0's metrics of an ended episode (the map scored if the agent hands one over)."""
-    error = info["parking_error"]
-    map_belief = getattr(agent, "map_belief", None)
-    return {
-        "parked": bool(info["parked"]),
-        "explored": bool(info["explored"]),
-        "coverage": float(info["coverage"]),
-        "min_room_coverage": float(min(info["room_coverage"])),
-        "time_to_park_s": info["time_to_park"],
-        "parking_heading_deg": math.degrees(error["heading_rad"]) if error else None,
-        "parking_lateral_m": error["lateral_m"] if error else None,
-        "map_iou": float(env.unwrapped.belief_iou(map_belief())) if map_belief is not None else None,
-    }
 
 
 def _near_a_mover(pose: np.ndarray, poses: np.ndarray, movers: Any, within_m: float = 0.5) -> bool:
@@ -178,9 +176,6 @@ def _near_a_mover(pose: np.ndarray, poses: np.ndarray, movers: Any, within_m: fl
         if math.hypot(max(along, 0.0), max(across, 0.0)) < within_m:
             return True
     return False
-
-
-DEFAULT_ENV_ID = "PicoEscape-v0"
 
 
 Job = tuple[str, str, dict[str, Any], dict[str, Any], list[int], dict[str, Any]]
@@ -261,7 +256,7 @@ def _run_on_ray(
     while pending:
         done, _ = ray.wait(list(pending), num_returns=1)
         for ref in done:
-            records += [EpisodeRecord(**d) for d in ray.get(ref)]
+            records += [EpisodeRecord.from_dict(d) for d in ray.get(ref)]
             n = pending.pop(ref)
             if progress:
                 progress(n)
@@ -275,7 +270,7 @@ def _worker_as_dicts(job: Job) -> list[dict[str, Any]]:
 
 @dataclass(frozen=True)
 class Summary:
-    """Aggregate figures over episodes."""
+    """Aggregate figures over episodes: the common core, and the task's own block (`metrics`)."""
 
     episodes: int
     success_rate: float
@@ -291,30 +286,22 @@ class Summary:
     act_ms_median: float
     progress_mean: float = math.nan
     bumps_by_kind: dict[str, int] = dataclasses.field(default_factory=dict)
-    no_false_announcement_rate: float = math.nan
     localised_within_rate: float = math.nan  # init error < 0.05 m and 2 deg, of the episodes
     localise_time_median_s: float = math.nan
     localise_error_median_m: float = math.nan
     max_localise_error_median_m: float = math.nan
     max_localise_error_max_m: float = math.nan
     near_mover_s_mean: float = 0.0
-    # PicoExplore-v0 (nan elsewhere)
-    parked_rate: float = math.nan
-    explored_and_parked_rate: float = math.nan
-    found_of_parked_rate: float = math.nan
-    rooms_covered_rate: float = math.nan  # episodes with every room >= 95 % seen
-    parking_heading_max_deg: float = math.nan
-    time_to_park_median_s: float = math.nan
-    map_iou_median: float = math.nan
-    map_iou_min: float = math.nan
-    map_iou_at_least_0_9_rate: float = math.nan  # episodes whose map scores 0.9 or more
+    metrics: dict[str, Any] = dataclasses.field(default_factory=dict)  # the task's own block
+    env_id: str | None = None  # whose task's block `metrics` is (None: the core alone)
 
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)
 
 
-def summarize(records: list[EpisodeRecord]) -> Summary:
-    """Success and bump rates (fraction of episodes), times of the successful episodes, SPL, SCT."""
+def summarize(records: list[EpisodeRecord], env_id: str | None = None) -> Summary:
+    """Success and bump rates (fraction of episodes), times of the successful episodes, SPL, SCT,
+    and, given the env id, its task's own figures (`EpisodeMetrics.summarize`)."""
     n = len(records)
     times = [r.time_s for r in records if r.success]
     return Summary(
@@ -332,36 +319,17 @@ def summarize(records: list[EpisodeRecord]) -> Summary:
         act_ms_median=float(np.median([r.act_ms for r in records])),
         progress_mean=float(np.mean([r.progress for r in records])),
         bumps_by_kind={k: sum(r.bumps_by_kind.get(k, 0) for r in records) for k in _kinds(records)},
-        no_false_announcement_rate=sum(r.false_announcements == 0 for r in records) / n,
         localised_within_rate=_rate(
             records, lambda r: r.localise_error_m < 0.05 and r.localise_error_deg < 2.0, lambda r: r.localise_error_m
         ),
-        localise_time_median_s=_median(r.localise_time_s for r in records),
-        localise_error_median_m=_median(r.localise_error_m for r in records),
-        max_localise_error_median_m=_median(r.max_localise_error_m for r in records),
-        max_localise_error_max_m=_max(r.max_localise_error_m for r in records),
+        localise_time_median_s=median_of(r.localise_time_s for r in records),
+        localise_error_median_m=median_of(r.localise_error_m for r in records),
+        max_localise_error_median_m=median_of(r.max_localise_error_m for r in records),
+        max_localise_error_max_m=max_of(r.max_localise_error_m for r in records),
         near_mover_s_mean=float(np.mean([r.near_mover_s for r in records])),
-        **_explore_summary(records),
+        metrics=task_info(env_id).load_metrics().summarize(records) if env_id is not None else {},
+        env_id=env_id,
     )
-
-
-def _explore_summary(records: list[EpisodeRecord]) -> dict[str, float]:
-    if any(r.parked is None for r in records):
-        return {}
-    n = len(records)
-    parked = [r for r in records if r.parked]
-    ious = [r.map_iou for r in records if r.map_iou is not None]
-    return {
-        "parked_rate": len(parked) / n,
-        "explored_and_parked_rate": sum(bool(r.explored) for r in parked) / n,
-        "found_of_parked_rate": sum(r.success for r in parked) / len(parked) if parked else math.nan,
-        "rooms_covered_rate": sum((r.min_room_coverage or 0.0) >= 0.95 for r in records) / n,
-        "parking_heading_max_deg": _max(r.parking_heading_deg for r in parked),
-        "time_to_park_median_s": _median(r.time_to_park_s for r in parked),
-        "map_iou_median": float(np.median(ious)) if ious else math.nan,
-        "map_iou_min": float(min(ious)) if ious else math.nan,
-        "map_iou_at_least_0_9_rate": sum(v >= 0.9 for v in ious) / len(ious) if ious else math.nan,
-    }
 
 
 def _kinds(records: list[EpisodeRecord]) -> list[str]:
@@ -369,16 +337,6 @@ def _kinds(records: list[EpisodeRecord]) -> list[str]:
     for r in records:
         kinds += [k for k in r.bumps_by_kind if k not in kinds]
     return kinds
-
-
-def _median(values: Iterable[float | None]) -> float:
-    finite = [v for v in values if v is not None]
-    return float(np.median(finite)) if finite else math.nan
-
-
-def _max(values: Iterable[float | None]) -> float:
-    finite = [v for v in values if v is not None]
-    return float(max(finite)) if finite else math.nan
 
 
 def _rate(
@@ -418,24 +376,8 @@ def format_summary(name: str, s: Summary) -> str:
                 f"{100 * s.max_localise_error_median_m:.1f} cm median, {100 * s.max_localise_error_max_m:.1f} cm worst",
             ),
         ]
-    if not math.isnan(s.no_false_announcement_rate) and s.no_false_announcement_rate < 1.0:
-        rows.append(("no false announcement", f"{100 * s.no_false_announcement_rate:.1f} % of episodes"))
-    if not math.isnan(s.parked_rate):
-        rows += [
-            ("explored and parked", f"{100 * s.explored_and_parked_rate:.1f} % (parked {100 * s.parked_rate:.1f} %)"),
-            ("object found, of the parked", f"{100 * s.found_of_parked_rate:.1f} %"),
-            ("every room >= 95 % seen", f"{100 * s.rooms_covered_rate:.1f} % of episodes"),
-            ("parking heading error, worst", f"{s.parking_heading_max_deg:.1f} deg"),
-            ("time to park, median", f"{s.time_to_park_median_s:.1f} s"),
-        ]
-        if not math.isnan(s.map_iou_median):
-            rows.append(
-                (
-                    "map IoU (free space) median / worst",
-                    f"{s.map_iou_median:.3f} / {s.map_iou_min:.3f} ({100 * s.map_iou_at_least_0_9_rate:.0f} % of "
-                    "episodes >= 0.9)",
-                )
-            )
+    if s.env_id is not None:
+        rows += task_info(s.env_id).load_metrics().summary_rows(s.metrics)
     if s.near_mover_s_mean > 0.0:
         rows.append(("time within 0.5 m of a mover, mean", f"{s.near_mover_s_mean:.1f} s"))
     width = max(len(k) for k, _ in rows)

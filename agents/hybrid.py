@@ -435,3 +435,8 @@ class HybridAgent(HospitalAgent):
             target=target,
             text=base.text.replace("classic:", f"hybrid ({driving}):", 1),
         )
+
+
+def build(env: Any, **kwargs: Any) -> HybridAgent:
+    """The hybrid hospital agent for an env's robot (`make_agent("hybrid", env)`)."""
+    return HybridAgent(RobotSpec.of(env), **kwargs)

@@ -239,3 +239,32 @@ class PpoAgent(Agent):
     def _shielded(self, obs: dict[str, np.ndarray], twist: np.ndarray) -> np.ndarray:
         """The twist through the safety filter on the current scan (`ScanShield`)."""
         return self._shield(obs["lrf"], twist)
+
+
+def build(env: Any, **kwargs: Any) -> PpoAgent:
+    """The PPO escape agent for an env's robot (`make_agent("ppo", env)`; `path=` another policy)."""
+    return PpoAgent(RobotSpec.of(env), **kwargs)
+
+
+def build_pointgoal(env: Any, **kwargs: Any) -> PpoAgent:
+    """The privileged point-goal hospital baseline (`make_agent("ppo-pointgoal", env)`): its goal
+    comes from the env's true state."""
+    from pico_gym.wrappers import point_goal
+
+    if kwargs.get("path") is None:
+        if not SHIPPED_POINTGOAL_POLICY.exists():
+            raise FileNotFoundError(
+                "no ppo-pointgoal policy is shipped (none has reached the bar to ship: 80 % success on "
+                "generated hospitals with 2 cabinets); train one with train/configs/ppo_hospital_pointgoal.yaml "
+                "and pass path=... (--policy)"
+            )
+        kwargs["path"] = SHIPPED_POINTGOAL_POLICY
+    agent = PpoAgent(RobotSpec.of(env), goal=lambda: point_goal(env), **kwargs)  # privileged: the true pose
+    outputs, wanted = agent.actor.action_low.shape[0], env.action_space.shape[0]
+    if outputs != wanted:
+        trained, here = ("arrival='announce'", "'dwell'") if outputs == 4 else ("arrival='dwell'", "'announce'")
+        raise ValueError(
+            f"this ppo-pointgoal policy ({kwargs['path']}) has {outputs} action outputs (trained with {trained}); "
+            f"the env here takes {wanted} (arrival={here}): make the env with the arrival mode it was trained in"
+        )
+    return agent

@@ -1,34 +1,80 @@
 """pico-gym: the Embedded Motion Control course's PICO challenges as Gymnasium environments.
 
 Importing the package registers the environment ids (also registered through the
-`gymnasium.envs` entry point, so `gym.make("PicoEscape-v0")` works without the import).
+`gymnasium.envs` entry point, so `gym.make("PicoEscape-v0")` works without the import). Each id
+comes with what the layers above the env core need of its task (`pico_gym.registry.TaskInfo`).
 """
 
 from __future__ import annotations
 
-from gymnasium.envs.registration import register, registry
+from pico_gym.registry import TASKS, BenchRow, Suite, SuiteGroup, TaskInfo, register_task
 
 __version__ = "0.1.0"
 
-ENV_IDS = ("PicoEscape-v0", "PicoHospital-v0", "PicoExplore-v0")
-_ENTRY_POINTS = {
-    "PicoEscape-v0": "pico_gym.envs.escape_env:PicoEscapeEnv",
-    "PicoHospital-v0": "pico_gym.envs.hospital_env:PicoHospitalEnv",
-    "PicoExplore-v0": "pico_gym.envs.explore_env:PicoExploreEnv",
-}
-_VECTOR_ENTRY_POINTS = {
-    "PicoEscape-v0": "pico_gym.vector:escape_vector_env",
-    "PicoHospital-v0": "pico_gym.vector:hospital_vector_env",
-    "PicoExplore-v0": "pico_gym.vector:explore_vector_env",
-}
+_BUSY_2019 = {"map": "hospital_2019", "n_boxes": (2, 2), "n_movers": (1, 1), "n_closed_doors": (1, 1)}
+
+BUILTIN_TASKS = (
+    TaskInfo(
+        "PicoEscape-v0",
+        "pico_gym.envs.escape_env:PicoEscapeEnv",
+        "pico_gym.vector:escape_vector_env",
+        worlds="rooms",
+        map_prefix="escape",
+        map_kwargs={"sample_start": True},
+    ),
+    TaskInfo(
+        "PicoHospital-v0",
+        "pico_gym.envs.hospital_env:PicoHospitalEnv",
+        "pico_gym.vector:hospital_vector_env",
+        worlds="hospitals",
+        map_prefix="hospital",
+        metrics="pico_gym.tasks.hospital:HospitalMetrics",
+        bench_rows=(
+            BenchRow(
+                "hospital_2019, 2 movers, 2 boxes, 0-1 closed doors",
+                {"map": "hospital_2019", "n_movers": (2, 2), "n_boxes": (2, 2)},
+            ),
+            BenchRow("hospital_2019, defaults", {"map": "hospital_2019"}),
+            BenchRow("hospital_2021 (its 2 movers, 0-2 boxes)", {"map": "hospital_2021"}),
+            BenchRow("generated hospitals, defaults"),
+        ),  # fmt: skip
+        lrf_maps=("hospital_2019", "hospital_2021"),
+        suites=(
+            Suite(
+                "hospital",
+                "generated hospitals, hospital_2019 with a closed door, 2 boxes and a person, and hospital_2021",
+                (
+                    SuiteGroup("generated"),
+                    SuiteGroup("hospital_2019 busy", _BUSY_2019, "hospital_2019"),
+                    SuiteGroup("hospital_2021", {"map": "hospital_2021"}, "hospital_2021"),
+                ),
+            ),
+        ),
+    ),
+    TaskInfo(
+        "PicoExplore-v0",
+        "pico_gym.envs.explore_env:PicoExploreEnv",
+        "pico_gym.vector:explore_vector_env",
+        worlds="buildings",
+        map_prefix="explore",
+        metrics="pico_gym.tasks.explore:ExploreMetrics",
+        bench_rows=(
+            BenchRow("generated 2018 hospitals, defaults"),
+            BenchRow("generated 2018 hospitals, collision=continue", {"collision": "continue"}),
+        ),
+    ),
+)
 
 
 def register_envs() -> None:
-    """Register pico-gym's ids with Gymnasium (each with its vector env, `pico_gym.vector`); a
-    second call does nothing."""
-    for env_id, entry_point in _ENTRY_POINTS.items():
-        if env_id not in registry:
-            register(id=env_id, entry_point=entry_point, vector_entry_point=_VECTOR_ENTRY_POINTS[env_id])
+    """Register pico-gym's ids with Gymnasium (each with its vector env, `pico_gym.vector`) and
+    their tasks' info (`pico_gym.registry`); a second call does nothing."""
+    for info in BUILTIN_TASKS:
+        register_task(info)
 
 
 register_envs()
+# The shipped envs' ids (`pico_gym.registry.TASKS` holds every registered task).
+ENV_IDS = tuple(info.env_id for info in BUILTIN_TASKS)
+
+__all__ = ["ENV_IDS", "TASKS", "register_envs"]

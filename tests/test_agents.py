@@ -205,7 +205,7 @@ def test_run_takes_the_reset_options(capsys: pytest.CaptureFixture[str]) -> None
     assert main(["run", "--env", "PicoHospital-v0", "--map", "hospital_2019", "--option", "cabinet_order=[99]"]) == 2
     assert "--option" in capsys.readouterr().err
     args = ["run", "--env", "PicoHospital-v0", "--map", "hospital_2019", "--seed", "3", "--option", "cabinet_order=[0]"]
-    assert main([*args, "--set", "n_movers=(0, 0)", "--set", "n_boxes=(0, 0)", "--set", "closed_doors=(0, 0)"]) == 0
+    assert main([*args, "--set", "n_movers=(0, 0)", "--set", "n_boxes=(0, 0)", "--set", "n_closed_doors=(0, 0)"]) == 0
     out = capsys.readouterr().out
     assert "outcome: done" in out
 

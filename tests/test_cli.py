@@ -7,7 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pico_gym.cli import clutter_scene, free_poses, main
+from pico_gym.bench import clutter_scene, free_poses
+from pico_gym.cli import main
 
 
 def test_maps_lists_the_shipped_maps(capsys: pytest.CaptureFixture[str]) -> None:

@@ -7,7 +7,8 @@ import pytest
 from helpers import EPISODE_FIELDS, SUMMARY_FIELDS
 
 from pico_gym.agents.cli import add_compare
-from pico_gym.agents.compare import Episodes, escape_maps
+from pico_gym.agents.compare import Episodes
+from pico_gym.registry import SuiteGroup, task_info
 from pico_gym.cli import main
 
 
@@ -89,12 +90,15 @@ def test_compare_writes_table_json_csv_and_plots_deterministically(tmp_path, cap
 
 
 def test_suites():
-    assert Episodes.suite("generated", 3, 10).groups == ((None, (10, 11, 12)),)
+    assert Episodes.suite("generated", 3, 10).groups == ((SuiteGroup("generated"), (10, 11, 12)),)
+    escape_maps = task_info("PicoEscape-v0").shipped_maps()
     maps = Episodes.suite("maps", 2, 0)
-    assert [m for m, _ in maps.groups] == escape_maps() and "escape_2019" in escape_maps()
-    assert maps.env_kwargs("escape_2019")["sample_start"] is True
-    assert len(Episodes.suite("all", 1, 0).groups) == 1 + len(escape_maps())
-    with pytest.raises(ValueError, match="suite"):
+    assert [g.label for g, _ in maps.groups] == escape_maps and "escape_2019" in escape_maps
+    assert all(name.startswith("escape") for name in escape_maps)
+    group = next(g for g, _ in maps.groups if g.label == "escape_2019")
+    assert maps.env_kwargs(group) == {"map": "escape_2019", "sample_start": True}
+    assert len(Episodes.suite("all", 1, 0).groups) == 1 + len(escape_maps)
+    with pytest.raises(ValueError, match="PicoEscape-v0 has no suite 'nope'; its suites: generated, maps, all"):
         Episodes.suite("nope", 1, 0)
 
 
@@ -105,12 +109,14 @@ def test_unknown_agent_is_named(capsys):
 
 
 def test_the_hospital_suite_holds_the_issue_settings_and_tables_each_group(tmp_path) -> None:  # type: ignore[no-untyped-def]
-    from pico_gym.agents.compare import HOSPITAL_SUITE, compare
+    from pico_gym.agents.compare import compare
 
     episodes = Episodes.suite("hospital", 1, 3, env_id="PicoHospital-v0")
-    assert [m for m, _ in episodes.groups] == [None, *HOSPITAL_SUITE]
-    assert episodes.env_kwargs("hospital_2019 busy")["closed_doors"] == (1, 1)
-    with pytest.raises(ValueError, match="PicoHospital-v0"):
+    assert [g.label for g, _ in episodes.groups] == ["generated", "hospital_2019 busy", "hospital_2021"]
+    busy = episodes.groups[1][0]
+    assert episodes.env_kwargs(busy) == {"map": "hospital_2019", "n_boxes": (2, 2), "n_movers": (1, 1),
+                                         "n_closed_doors": (1, 1)}  # fmt: skip
+    with pytest.raises(ValueError, match="PicoEscape-v0 has no suite 'hospital'"):
         Episodes.suite("hospital", 1, 3)
     compare(["random"], episodes, tmp_path, workers=1, n_rooms=0)
     text = (tmp_path / "results.md").read_text()
@@ -129,7 +135,7 @@ def test_an_announcing_comparison_lets_the_floor_baselines_play_silent(tmp_path)
     compare(["random", "wall-follow"], episodes, tmp_path, workers=1, n_rooms=0)
     records = json.loads((tmp_path / "results.json").read_text())["episodes"]
     assert {r["agent"] for r in records} == {"random", "wall-follow"}
-    assert all(r["false_announcements"] == 0 for r in records)
+    assert all(r["metrics"]["false_announcements"] == 0 for r in records)
 
 
 def test_hospital_records_time_each_leg() -> None:
@@ -138,7 +144,8 @@ def test_hospital_records_time_each_leg() -> None:
     from pico_gym.agents import make_agent
     from pico_gym.agents.evaluation import run_episode
 
-    env = gym.make("PicoHospital-v0", map="hospital_2019", n_boxes=(0, 0), n_movers=(0, 0), closed_doors=(0, 0))
+    env = gym.make("PicoHospital-v0", map="hospital_2019", n_boxes=(0, 0), n_movers=(0, 0), n_closed_doors=(0, 0))
     record = run_episode(env, make_agent("classic", env), 4, options={"cabinet_order": [0, 1, 3]})
-    assert record.success and len(record.leg_done_s) == 3
-    assert record.leg_done_s == sorted(record.leg_done_s) and record.leg_done_s[-1] == record.time_s
+    legs = record.metrics["leg_done_s"]
+    assert record.success and len(legs) == 3
+    assert legs == sorted(legs) and legs[-1] == record.time_s

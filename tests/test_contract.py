@@ -21,7 +21,7 @@ IDS = [env_id for env_id, spec in gym.registry.items() if str(spec.entry_point).
 # Settings that exercise each id's moving parts (movers, boxes, closed doors on the hospital).
 BUSY = {
     "PicoEscape-v0": {"n_obstacles": 2, "slip_std": 0.05},
-    "PicoHospital-v0": {"map": "hospital_2019", "n_movers": (2, 2), "n_boxes": (2, 2), "closed_doors": (1, 1)},
+    "PicoHospital-v0": {"map": "hospital_2019", "n_movers": (2, 2), "n_boxes": (2, 2), "n_closed_doors": (1, 1)},
     "PicoExplore-v0": {"n_rooms": (6, 6), "phase_observation": True, "arrival": "announce"},
 }
 

@@ -153,7 +153,8 @@ def test_bad_map_files_name_the_file_and_key(tmp_path, data: object, message: st
 
 def test_training_yaml_policy_kwargs_are_data_not_code(tmp_path) -> None:
     pytest.importorskip("torch")
-    from pico_gym.train.ppo import ConfigError, _policy_kwargs
+    from pico_gym.train.config import ConfigError
+    from pico_gym.train.config import parse_policy_kwargs as _policy_kwargs
 
     assert _policy_kwargs("dict(net_arch=[64, 64], activation_fn=nn.ReLU)", "c.yaml")["net_arch"] == [64, 64]
     marker = tmp_path / "ran"

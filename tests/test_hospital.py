@@ -20,7 +20,7 @@ from pico_gym.world.hospital import CABINET_SIDE_M, Cabinet, HospitalConfig, gen
 from pico_gym.world.map import MapError, load_map
 from pico_gym.world.movers import MoverRecord, Movers
 
-QUIET = {"n_boxes": (0, 0), "n_movers": (0, 0), "closed_doors": (0, 0), "noise_m": 0.0}
+QUIET = {"n_boxes": (0, 0), "n_movers": (0, 0), "n_closed_doors": (0, 0), "noise_m": 0.0}
 UP = math.pi / 2
 
 
@@ -169,7 +169,7 @@ def _hospital_with(movers: list[dict]):
 
 
 def test_the_given_map_holds_no_closed_door_box_or_mover() -> None:
-    env = hospital(n_boxes=(2, 2), n_movers=(1, 1), closed_doors=(1, 1))
+    env = hospital(n_boxes=(2, 2), n_movers=(1, 1), n_closed_doors=(1, 1))
     _, info = env.reset(seed=3)
     spec = info["task"]
     scene = env.unwrapped.scene
@@ -221,7 +221,7 @@ def _reachable(env: gym.Env, order: tuple[int, ...]) -> bool:
 
 
 def test_closed_doors_and_boxes_never_cut_a_target_off() -> None:
-    env = hospital(n_boxes=(2, 3), closed_doors=(1, 2), n_cabinets=4)
+    env = hospital(n_boxes=(2, 3), n_closed_doors=(1, 2), n_cabinets=4)
     closed_any = 0
     for seed in range(60):
         _, info = env.reset(seed=seed)
@@ -247,7 +247,7 @@ def test_closing_a_door_that_cuts_a_target_off_is_refused_naming_it() -> None:
 
 
 def test_a_count_option_takes_an_exact_number_or_a_range_and_names_a_bad_one() -> None:
-    env = gym.make("PicoHospital-v0", map="hospital_2019", n_boxes=2, n_movers=1, closed_doors=1)
+    env = gym.make("PicoHospital-v0", map="hospital_2019", n_boxes=2, n_movers=1, n_closed_doors=1)
     env.reset(seed=0)
     scene = env.unwrapped.scene
     assert (len(scene.boxes), len(scene.closed_doors)) == (2, 1)
@@ -256,6 +256,9 @@ def test_a_count_option_takes_an_exact_number_or_a_range_and_names_a_bad_one() -
             gym.make("PicoHospital-v0", n_boxes=bad)
     with pytest.raises(ValueError, match=r"n_movers must be a range .* 0 <= lo <= hi, got \(3, 1\)"):
         gym.make("PicoHospital-v0", n_movers=(3, 1))
+    # One meaning per name: the count is n_closed_doors; closed_doors names doors, in reset's options.
+    with pytest.raises(TypeError, match=r"closed_doors is a reset option .* n_closed_doors=\(lo, hi\)"):
+        gym.make("PicoHospital-v0", closed_doors=(1, 1))
 
 
 def test_closing_a_door_lengthens_the_oracle_chain() -> None:
@@ -277,7 +280,7 @@ def test_closing_a_door_lengthens_the_oracle_chain() -> None:
 
 
 def test_lrf_is_exact_against_walls_cabinets_boxes_closed_doors_and_movers() -> None:
-    env = hospital(n_boxes=(2, 2), n_movers=(2, 2), closed_doors=(1, 1))
+    env = hospital(n_boxes=(2, 2), n_movers=(2, 2), n_closed_doors=(1, 1))
     obs, _ = env.reset(seed=5)
     for _ in range(30):
         obs, *_ = env.step(np.array([0.0, 0.0, 0.6]))
@@ -385,7 +388,7 @@ def test_generated_hospitals_follow_the_rules_over_1000_seeds() -> None:
 
 
 def test_every_generated_episode_is_solvable_over_1000_seeds() -> None:
-    env = gym.make("PicoHospital-v0", n_boxes=(1, 3), closed_doors=(0, 2), n_movers=(0, 2))
+    env = gym.make("PicoHospital-v0", n_boxes=(1, 3), n_closed_doors=(0, 2), n_movers=(0, 2))
     for seed in range(1000):
         _, info = env.reset(seed=seed)
         legs = env.unwrapped.episode.extra["legs"]

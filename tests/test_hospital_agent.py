@@ -14,7 +14,7 @@ import pico_gym  # noqa: F401
 from pico_gym.agents import make_agent
 from pico_gym.agents.classic.hospital import HospitalAgent, HospitalAgentConfig, State, _update_evidence
 
-QUIET = {"closed_doors": (0, 0), "n_boxes": (0, 0), "n_movers": (0, 0)}
+QUIET = {"n_closed_doors": (0, 0), "n_boxes": (0, 0), "n_movers": (0, 0)}
 
 
 def _play(env: gym.Env, agent: HospitalAgent, seed: int, options: dict | None = None) -> tuple[dict, list]:
@@ -100,7 +100,7 @@ def test_states_are_an_enum_and_the_overlay_shows_them() -> None:
 def test_bench_records_and_summaries_carry_the_hospital_metrics() -> None:
     from pico_gym.agents.evaluation import run_episode, summarize
 
-    env = gym.make("PicoHospital-v0", map="hospital_2019", closed_doors=(0, 0), n_boxes=(0, 0), n_movers=(1, 1))
+    env = gym.make("PicoHospital-v0", map="hospital_2019", n_closed_doors=(0, 0), n_boxes=(0, 0), n_movers=(1, 1))
     record = run_episode(env, make_agent("classic", env), seed=1)
     assert record.progress == 1.0 and record.success
     assert set(record.bumps_by_kind) == {"wall", "cabinet", "door", "box", "mover"}
@@ -135,7 +135,7 @@ def _states_of(env: gym.Env, agent: HospitalAgent, seed: int, options: dict | No
             return info, seen
 
 
-BUSY = {"map": "hospital_2019", "n_boxes": (2, 2), "n_movers": (1, 1), "closed_doors": (1, 1)}
+BUSY = {"map": "hospital_2019", "n_boxes": (2, 2), "n_movers": (1, 1), "n_closed_doors": (1, 1)}
 
 
 def test_a_person_in_the_way_is_waited_for_outside_its_pause_radius() -> None:
@@ -217,7 +217,7 @@ def test_a_walking_person_leaves_no_wall_behind() -> None:
     from pico_gym.agents.classic.hospital import HospitalAgentConfig
 
     def left_behind(clear: bool) -> int:
-        env = gym.make("PicoHospital-v0", map="hospital_2019", n_boxes=(0, 0), n_movers=(1, 1), closed_doors=(0, 0))
+        env = gym.make("PicoHospital-v0", map="hospital_2019", n_boxes=(0, 0), n_movers=(1, 1), n_closed_doors=(0, 0))
         agent = HospitalAgent(RobotSpec.of(env), dataclasses.replace(HospitalAgentConfig(), clear_trails=clear))
         obs, info = env.reset(seed=3)
         agent.reset(obs, {"task": info["task"]})
@@ -242,7 +242,7 @@ def test_a_person_beside_a_wall_does_not_pull_the_pose() -> None:
     """Busy seed 216: a person stands beside a door jamb while the robot passes; registering its
     points onto the jamb dragged the estimate 0.3 m and the robot into the wall. Its points are
     left out of the registration while it is tracked."""
-    env = gym.make("PicoHospital-v0", map="hospital_2019", n_boxes=(2, 2), n_movers=(1, 1), closed_doors=(1, 1))
+    env = gym.make("PicoHospital-v0", map="hospital_2019", n_boxes=(2, 2), n_movers=(1, 1), n_closed_doors=(1, 1))
     info, errors = _play(env, make_agent("classic", env), 216)
     assert info["bumps"] == 0
     assert max(e for e, _ in errors) < 0.1
@@ -364,7 +364,7 @@ def test_docking_takes_depth_and_angle_from_the_front_the_lrf_sees(estimate_off:
 def test_with_escape_people_it_backs_away_from_a_person_it_tracked_out_of_view() -> None:
     """A person tracked walking who paused just behind the robot (out of the LRF's view, in no
     scan) is among what RECOVER and YIELD move away from with `escape_people`; off, only the scan."""
-    env = gym.make("PicoHospital-v0", n_movers=0, n_boxes=0, closed_doors=0)
+    env = gym.make("PicoHospital-v0", n_movers=0, n_boxes=0, n_closed_doors=0)
     agent = make_agent("classic", env, config=HospitalAgentConfig(escape_people=True))
     obs, info = env.reset(seed=3)
     agent.reset(obs, info)

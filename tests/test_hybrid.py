@@ -23,7 +23,7 @@ from pico_gym.types import Pose
 from pico_gym.wrappers import LearningConfig, LearningEncoder
 
 LEARNING = LearningConfig(n_sectors=64, frame_stack=2, memory_sectors=36, range_scale="log", point_goal=True)
-QUIET = {"map": "hospital_2019", "closed_doors": (0, 0), "n_boxes": (0, 0), "n_movers": (0, 0)}
+QUIET = {"map": "hospital_2019", "n_closed_doors": (0, 0), "n_boxes": (0, 0), "n_movers": (0, 0)}
 
 
 def _policy_file(tmp_path, env: gym.Env, scale: float = 0.0, bias=(0.0, 0.0, 0.0)):  # type: ignore[no-untyped-def]
@@ -400,7 +400,7 @@ def test_a_wedged_recovery_turns_where_the_safety_filter_lets_it(tmp_path) -> No
 def test_recovering_it_backs_away_from_a_person_it_tracked_out_of_view(tmp_path) -> None:  # type: ignore[no-untyped-def]
     """A person tracked walking who paused just behind the robot (out of the LRF's view, in no
     scan) is among what the classic part moves away from (`escape_people`); off, only the scan."""
-    env = gym.make("PicoHospital-v0", n_movers=0, n_boxes=0, closed_doors=0)
+    env = gym.make("PicoHospital-v0", n_movers=0, n_boxes=0, n_closed_doors=0)
     agent = _agent_in(State.RECOVER, env, tmp_path, HybridConfig())
     assert agent.localised
     behind = person_paused_behind(agent, 0.5)
@@ -423,7 +423,8 @@ def test_hybrid_config_refuses_a_bad_recover_turn() -> None:
 
 def test_the_training_loop_and_its_evaluations_drive_with_the_configs_cuts(monkeypatch) -> None:  # type: ignore[no-untyped-def]
     import pico_gym.agents.hybrid as hybrid_module
-    from pico_gym.train.ppo import goal_metadata, load_config, policy_agent
+    from pico_gym.train.callbacks import policy_agent
+    from pico_gym.train.config import goal_metadata, load_config
 
     config = load_config(Path(__file__).parents[1] / "train" / "configs" / "ppo_hospital_hybrid_walkin.yaml")
     assert config.hybrid_kwargs == {"lookahead_m": 1.0, "shield": True, "walk_in_mps": 0.5, "back_budget_m": 0.1}

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from pico_gym.cli import clutter_scene
+from pico_gym.bench import clutter_scene
 from pico_gym.sensors.lrf import Lrf, LrfConfig, lrf_ranges
 from pico_gym.types import Pose
 from pico_gym.world.segment_grid import GRID_MIN_SEGMENTS, SegmentGrid

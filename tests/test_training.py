@@ -16,8 +16,11 @@ pytest.importorskip("stable_baselines3")
 import pico_gym  # noqa: E402,F401
 from pico_gym.agents import make_agent  # noqa: E402
 from pico_gym.agents.evaluation import run_episode  # noqa: E402
+from pico_gym.train.checkpoints import latest_checkpoint  # noqa: E402
 from pico_gym.train.cli import DEFAULT_CONFIG  # noqa: E402
-from pico_gym.train.ppo import TRAIN_SEED_MIN, ConfigError, EpisodeSeeds, latest_checkpoint, load_config, train  # noqa: E402
+from pico_gym.train.config import TRAIN_SEED_MIN, ConfigError, load_config  # noqa: E402
+from pico_gym.train.envs import EpisodeSeeds  # noqa: E402
+from pico_gym.train.ppo import train  # noqa: E402
 
 TINY = """
 PicoEscape-v0:
@@ -109,11 +112,11 @@ def test_training_seeds_are_disjoint_from_evaluation_seeds():
 
 
 def test_train_env_variants_randomise_the_envs_of_the_vector_env(tmp_path):
-    from pico_gym.train.ppo import make_vec_env
+    from pico_gym.train.envs import make_training_vec_env
 
     path = tmp_path / "variants.yaml"
     path.write_text(TINY + "  train_env_variants: [{}, {n_obstacles: 2, noise_m: 0.02}]\n")
-    vec = make_vec_env(load_config(path), seed=0)
+    vec = make_training_vec_env(load_config(path), seed=0)
     configs = [env.unwrapped.config for env in vec.envs]
     assert [c.task.room.n_obstacles for c in configs] == [0, 2]
     assert [c.lrf.noise_m for c in configs] == [0.01, 0.02]
@@ -330,7 +333,7 @@ def test_the_shipped_point_goal_policy_plays_shielded_and_its_absence_is_named(m
 
 def test_demonstrations_cover_the_training_variants(tmp_path, monkeypatch):
     """The teacher's episodes are spread over `train_env_variants` as the training envs are."""
-    import pico_gym.train.ppo as ppo
+    import pico_gym.train.cloning as ppo
 
     path = tmp_path / "c.yaml"
     path.write_text(TINY + "  train_env_variants: [{}, {n_obstacles: 2}]\n")
@@ -368,14 +371,16 @@ def test_ship_counts_a_checkpoint_between_evaluations_and_a_start_from_a_shipped
 
 
 def test_the_training_vec_env_returns_what_dummy_vec_env_returns(tiny_config):
-    """make_vec_env's in-process VecEnv skips DummyVecEnv's deep copy of the infos, nothing else:
+    """make_training_vec_env's in-process VecEnv skips DummyVecEnv's deep copy of the infos, nothing else:
     observations, rewards, dones and infos (terminal observations included) are DummyVecEnv's."""
     from stable_baselines3.common.vec_env import DummyVecEnv
 
-    from pico_gym.train.ppo import make_env, make_vec_env
+    from pico_gym.train.envs import make_training_env, make_training_vec_env
 
-    ours = make_vec_env(tiny_config, seed=4)
-    theirs = DummyVecEnv([lambda i=i: make_env(tiny_config, np.random.default_rng([4, i, 0]), i) for i in range(2)])
+    ours = make_training_vec_env(tiny_config, seed=4)
+    theirs = DummyVecEnv(
+        [lambda i=i: make_training_env(tiny_config, np.random.default_rng([4, i, 0]), i) for i in range(2)]
+    )
     assert np.array_equal(ours.reset(), theirs.reset())
     rng = np.random.default_rng(0)
     dones = 0
@@ -431,7 +436,7 @@ def test_the_announcing_point_goal_policy_plays_the_announce_mode_only(tmp_path)
 
 def test_behaviour_cloning_labels_the_announcement_where_the_robot_stands(tmp_path):
     """bc_announce 'arrival': +1 on the steps in the next square facing its cabinet, -1 elsewhere."""
-    from pico_gym.train.ppo import ANNOUNCE_LABEL_MARGIN, collect_demonstrations
+    from pico_gym.train.cloning import ANNOUNCE_LABEL_MARGIN, collect_demonstrations
 
     config = _announce_config(tmp_path)
     config.pico["env_kwargs"] = {"n_cabinets": 1, "arrival": "announce"}
@@ -462,12 +467,12 @@ def test_the_vector_training_env_hands_sb3_what_the_dummy_path_does(tiny_config)
     infos, bit for bit, over episodes that end by bumps and time limits."""
     import copy
 
-    from pico_gym.train.ppo import make_vec_env
+    from pico_gym.train.envs import make_training_vec_env
 
     tiny_config.pico["env_kwargs"] = {"n_beams": 200, "time_limit_s": 4}
     vector = copy.deepcopy(tiny_config)
     vector.pico["vec_env"] = "vector"
-    ours, theirs = make_vec_env(vector, seed=4), make_vec_env(tiny_config, seed=4)
+    ours, theirs = make_training_vec_env(vector, seed=4), make_training_vec_env(tiny_config, seed=4)
     assert ours.observation_space == theirs.observation_space and ours.action_space == theirs.action_space
     assert np.array_equal(ours.reset(), theirs.reset())
     rng = np.random.default_rng(0)
@@ -692,10 +697,10 @@ def test_shielded_actions_after_the_learning_wrapper_are_refused(tmp_path):
     after = "        frame_stack: 2\n    - pico_gym.train.shielded.ShieldedActions\n"
     path.write_text(TINY.replace("        frame_stack: 2\n", after))
     config = load_config(path)
-    from pico_gym.train.ppo import make_env
+    from pico_gym.train.envs import make_training_env
 
     with pytest.raises(ValueError, match="list it before PicoLearningWrapper"):
-        make_env(config, np.random.default_rng(0))
+        make_training_env(config, np.random.default_rng(0))
 
 
 def test_a_config_with_shielded_actions_trains(tmp_path):

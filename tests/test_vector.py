@@ -48,7 +48,7 @@ CASES = [
     ("PicoEscape-v0", {"n_obstacles": 2, "noise_m": 0.03, "collision": "continue", "time_limit_s": 8.0},
      AutoresetMode.NEXT_STEP),
     ("PicoEscape-v0", {"random_start": True, "idle_time_s": 1.0, "time_limit_s": 5.0}, AutoresetMode.SAME_STEP),
-    ("PicoHospital-v0", {"map": "hospital_2019", "n_movers": (1, 1), "n_boxes": (2, 2), "closed_doors": (1, 1),
+    ("PicoHospital-v0", {"map": "hospital_2019", "n_movers": (1, 1), "n_boxes": (2, 2), "n_closed_doors": (1, 1),
                          "time_limit_s": 5.0}, AutoresetMode.SAME_STEP),
     ("PicoHospital-v0", {"map": "hospital_2021", "time_limit_s": 3.0}, AutoresetMode.NEXT_STEP),
     ("PicoExplore-v0", {"time_limit_s": 4.0}, AutoresetMode.NEXT_STEP),

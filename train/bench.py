@@ -78,15 +78,15 @@ def _time_step_wait(venv: Any) -> list[float]:
 def _ppo(config: Any, vec_env: Any, seed: int) -> Any:
     from stable_baselines3 import PPO
 
-    from pico_gym.train.ppo import ZOO_KEYS, _is_number, _policy_kwargs
+    from pico_gym.train.config import hyper_parameters, parse_policy_kwargs
 
     zoo = config.zoo
-    hyper = {k: float(v) if isinstance(v, str) and _is_number(v) else v for k, v in zoo.items() if k not in ZOO_KEYS}
+    hyper = hyper_parameters(zoo)
     policy = "MlpPolicy" if isinstance(vec_env.observation_space, gym.spaces.Box) else "MultiInputPolicy"
     return PPO(
         policy,
         vec_env,
-        policy_kwargs=_policy_kwargs(zoo.get("policy_kwargs"), config.source),
+        policy_kwargs=parse_policy_kwargs(zoo.get("policy_kwargs"), config.source),
         seed=seed,
         device="cpu",
         **hyper,
@@ -97,16 +97,9 @@ def cmd_bench_train(args: argparse.Namespace) -> int:
     import torch
     from stable_baselines3.common.vec_env import DummyVecEnv
 
-    from pico_gym.cli import _interleaved, _machine, _versions
-    from pico_gym.train.ppo import (
-        ConfigError,
-        EpisodeSeeds,
-        check_vector,
-        load_config,
-        make_env,
-        make_vec_env,
-        train_env_kwargs,
-    )
+    from pico_gym.timing import interleaved, machine, versions
+    from pico_gym.train.config import ConfigError, check_vector, load_config
+    from pico_gym.train.envs import EpisodeSeeds, make_training_env, make_training_vec_env, train_env_kwargs
     from pico_gym.train.sb3_vec import PicoSB3VecEnv
     from pico_gym.wrappers import PicoLearningWrapper
 
@@ -114,7 +107,7 @@ def cmd_bench_train(args: argparse.Namespace) -> int:
     torch.set_num_threads(int(config.pico["torch_threads"]))
     n_envs = int(config.zoo["n_envs"])
     per_round = int(config.zoo.get("n_steps", 2048)) * n_envs * args.rollouts
-    print(f"machine : {_machine()}\nversions: {_versions()}")
+    print(f"machine : {machine()}\nversions: {versions()}")
     print(
         f"method  : {args.rounds} interleaved rounds, medians; PPO as in {Path(args.config).name} "
         f"({n_envs} envs, {per_round:,} steps a round = {args.rollouts} rollouts)\n"
@@ -128,7 +121,7 @@ def cmd_bench_train(args: argparse.Namespace) -> int:
         paths["vector"] = vector
     except ConfigError as exc:
         print(f"(no vec_env: vector row: {exc})")
-    pico_vecs = {name: make_vec_env(c, args.seed) for name, c in paths.items()}
+    pico_vecs = {name: make_training_vec_env(c, args.seed) for name, c in paths.items()}
     first = next(iter(pico_vecs.values()))
     size = int(np.prod(first.observation_space.shape))
     toy_vec = DummyVecEnv([lambda: ToyObservationEnv(size, first.action_space) for _ in range(n_envs)])
@@ -150,7 +143,7 @@ def cmd_bench_train(args: argparse.Namespace) -> int:
 
         return run
 
-    toy_fps, *pico_fps = _interleaved([learn(k) for k in range(len(models))], args.rounds)
+    toy_fps, *pico_fps = interleaved([learn(k) for k in range(len(models))], args.rounds)
     _row(f"SB3 PPO, toy env ({size}-float Box observation)", toy_fps, "fps")
     for name, fps in zip(pico_vecs, pico_fps, strict=True):
         what = "DummyVecEnv of wrapped envs" if name == "dummy" else "PicoTrainingVecEnv"
@@ -171,7 +164,7 @@ def cmd_bench_train(args: argparse.Namespace) -> int:
     steps = 5000
     # The same chain without the learning wrapper and the Monitor: the same rooms (episode seeds
     # from the same generator) and the same actions, so both reset as often.
-    wrapped = make_env(config, np.random.default_rng(args.seed))
+    wrapped = make_training_env(config, np.random.default_rng(args.seed))
     bare = EpisodeSeeds(gym.make(config.env_id, **train_env_kwargs(config, 0)), np.random.default_rng(args.seed))
     wrapped.reset(seed=args.seed)
     bare.reset(seed=args.seed)
@@ -190,7 +183,7 @@ def cmd_bench_train(args: argparse.Namespace) -> int:
 
         return run
 
-    wrapped_rate, bare_rate = _interleaved([stepping(wrapped, unit_actions), stepping(bare, raw_actions)], args.rounds)
+    wrapped_rate, bare_rate = interleaved([stepping(wrapped, unit_actions), stepping(bare, raw_actions)], args.rounds)
     assert any(isinstance(w, PicoLearningWrapper) for w in _chain(wrapped))
     tax_us = statistics.median((1.0 / w - 1.0 / b) * 1e6 for w, b in zip(wrapped_rate, bare_rate, strict=True))
     print(
@@ -214,7 +207,7 @@ def cmd_bench_train(args: argparse.Namespace) -> int:
 
         return run
 
-    dummy_rate, ours_rate = _interleaved([vec_stepping(dummy), vec_stepping(ours)], args.rounds)
+    dummy_rate, ours_rate = interleaved([vec_stepping(dummy), vec_stepping(ours)], args.rounds)
     _row(f"SB3 DummyVecEnv, {n_envs} envs, raw observations", dummy_rate, "steps/s")
     _row(f"PicoSB3VecEnv (pico-gym vector env), {n_envs} envs", ours_rate, "steps/s", ("DummyVecEnv", dummy_rate))
     return 0

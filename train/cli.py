@@ -13,7 +13,8 @@ DEFAULT_CONFIG = Path(__file__).parent / "configs" / "ppo_escape.yaml"
 
 def cmd_train(args: argparse.Namespace) -> int:
     try:
-        from pico_gym.train.ppo import ConfigError, load_config, train
+        from pico_gym.train.config import ConfigError, load_config
+        from pico_gym.train.ppo import train
     except ImportError as exc:
         print(
             f"pico-gym train needs the train extra ({exc.name} is missing): "

@@ -85,11 +85,11 @@ def plot_learning_curve(
 if __name__ == "__main__":
     import sys
 
-    from pico_gym.train.ppo import _join_progress
+    from pico_gym.train.records import join_progress
 
     run = Path(sys.argv[1])
     if (run / "tb" / "progress.csv").exists():  # a run still going (or stopped) has its progress only in tb/
-        _join_progress(run)  # every session's rows (a resumed run has one file per session)
+        join_progress(run)  # every session's rows (a resumed run has one file per session)
     out = sys.argv[2] if len(sys.argv) > 2 else run / "learning_curve.png"
     mark = int(sys.argv[3]) if len(sys.argv) > 3 else None
     title = sys.argv[4] if len(sys.argv) > 4 else None  # default: the run's env and directory

@@ -25,10 +25,9 @@ from gymnasium.wrappers.utils import rescale_box
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvObs, VecEnvStepReturn
 
 from pico_gym.agents.base import RobotSpec
+from pico_gym.train.config import TRAIN_SEED_MIN
 from pico_gym.vector import PicoVectorEnv
 from pico_gym.wrappers import BatchedLearningEncoder, LearningConfig
-
-TRAIN_SEED_MIN = 1_000_000  # (pico_gym.train.ppo's: the training episodes' seeds are >= this)
 
 
 class PicoSB3VecEnv(VecEnv):

@@ -29,7 +29,8 @@ from pico_gym.agents.evaluation import Summary, run_episodes, summarize
 from pico_gym.agents.hybrid import SHIPPED_HYBRID_POLICY
 from pico_gym.agents.mlp import export_actor
 from pico_gym.agents.ppo import SHIPPED_POINTGOAL_POLICY, SHIPPED_POLICY, load_policy, policy_metadata_path
-from pico_gym.train.ppo import MIRROR_POLICY
+from pico_gym.registry import task_info
+from pico_gym.train.config import MIRROR_POLICY
 
 CHECK_EPISODES = 20
 REALISM = {"noise_m": 0.02, "slip_std": 0.05}
@@ -86,7 +87,7 @@ def _evaluate(target: Target, seeds: range, env_kwargs: dict[str, Any]) -> tuple
         records = run_episodes(
             target.agent, seeds, env_kwargs, {"path": str(target.policy)}, progress=bar.update, env_id=target.env_id
         )
-    return summarize(records), records
+    return summarize(records, target.env_id), records
 
 
 def _row(name: str, s: Summary) -> str:
@@ -185,7 +186,7 @@ def ship(
     if meta_path.exists():
         meta = json.loads(meta_path.read_text())
     else:  # a checkpoint: its metadata comes from the run's resolved config
-        from pico_gym.train.ppo import TrainConfig
+        from pico_gym.train.config import TrainConfig
 
         m = re.fullmatch(r"ppo_(\d+)_steps\.zip", source.name)
         if m is None:
@@ -193,7 +194,7 @@ def ship(
         env_id = next(k for k in config if k not in ("pico-gym", "run"))
         if config[env_id].get("normalize"):
             raise SystemExit(f"{source}: ship best.zip or model.zip, which carry the VecNormalize statistics")
-        from pico_gym.train.ppo import goal_metadata
+        from pico_gym.train.config import goal_metadata
 
         resolved = TrainConfig(env_id, config[env_id], config["pico-gym"], str(run_dir))
         meta = {
@@ -217,7 +218,7 @@ def ship(
 
     seeds = range(seed, seed + episodes)
     summary, records = _evaluate(target, seeds, meta.get("env_kwargs") or {})
-    rows = [_row("generated " + ("rooms" if target.env_id == "PicoEscape-v0" else "hospitals"), summary)]
+    rows = [_row(f"generated {task_info(target.env_id).worlds}", summary)]
     evaluation = {"generated": {"seeds": [seeds[0], seeds[-1]], **summary.to_dict()}}
     if realism:
         hard, _ = _evaluate(target, seeds, {**(meta.get("env_kwargs") or {}), **REALISM})
@@ -230,7 +231,7 @@ def ship(
         evaluation[name] = {"seeds": [seeds[0], seeds[-1]], "env_kwargs": kwargs, **summary_v.to_dict()}
         pooled += records_v
     if pooled:
-        evaluation["variants_pooled"] = summarize(pooled).to_dict()
+        evaluation["variants_pooled"] = summarize(pooled, target.env_id).to_dict()
     check = records[:CHECK_EPISODES]
     meta.update(
         source=str(source),

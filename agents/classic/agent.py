@@ -471,3 +471,8 @@ class ClassicAgent(Agent):
             target=None if self.target is None else self._to_robot(self.target),
             text=f"classic: {self.state.name}",
         )
+
+
+def build(env: Any, **kwargs: Any) -> ClassicAgent:
+    """The classic escape agent for an env's robot (`make_agent("classic", env)`)."""
+    return ClassicAgent(RobotSpec.of(env), **kwargs)

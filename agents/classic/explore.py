@@ -1529,3 +1529,8 @@ class ExploreAgent(Agent):
             target=self.goal if self.object is None else self.object,
             text=f"classic explore: {self.state.value}",
         )
+
+
+def build(env: Any, **kwargs: Any) -> ExploreAgent:
+    """The classic explore agent for an env's robot (`make_agent("classic", env)`)."""
+    return ExploreAgent(RobotSpec.of(env), **kwargs)

@@ -1339,3 +1339,13 @@ class OraclePoseAgent(HospitalAgent):
         self.pose = self._truth()
         self.health = 1.0
         self._update_world(points)
+
+
+def build(env: Any, **kwargs: Any) -> HospitalAgent:
+    """The classic hospital agent for an env's robot (`make_agent("classic", env)`)."""
+    return HospitalAgent(RobotSpec.of(env), **kwargs)
+
+
+def build_oracle(env: Any, **kwargs: Any) -> OraclePoseAgent:
+    """The classic hospital agent handed the true pose (`make_agent("classic-oracle", env)`)."""
+    return OraclePoseAgent(RobotSpec.of(env), env, **kwargs)

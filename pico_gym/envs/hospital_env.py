@@ -62,7 +62,7 @@ class PicoHospitalEnv(PicoEnv):
     Uniform in the map's start area with any heading and at least `start_clearance_m` (0.05 m)
     footprint clearance. `reset(options=...)`: `cabinet_order` (cabinet indices), `closed_doors`
     (door indices; `[]` = all open), `start_pose` (x, y, theta). Without them the episode draws
-    from the seed: an order of `n_cabinets` (3) cabinets, `closed_doors` (0-1) closed doors (never
+    from the seed: an order of `n_cabinets` (3) cabinets, `n_closed_doors` (0-1) closed doors (never
     one that cuts the start or a target off; an explicit `closed_doors` that does is refused with
     an error naming the door), `n_boxes` (0-2) boxes of 0.2-0.6 m (never in a doorway, on an
     arrival square, in the start area or in a wall, never cutting a target off), the map's movers,
@@ -92,7 +92,7 @@ class PicoHospitalEnv(PicoEnv):
     ## Arguments
     `gym.make("PicoHospital-v0", map=None, map_path=None, config=None, render_mode=None, **options)`:
     `map` names a shipped map (`pico-gym maps`), `map_path` a map file; any config field by name,
-    e.g. `n_cabinets=4`, `n_boxes=(2, 2)`, `closed_doors=(1, 1)`, `n_movers=(1, 1)`,
+    e.g. `n_cabinets=4`, `n_boxes=(2, 2)`, `n_closed_doors=(1, 1)`, `n_movers=(1, 1)`,
     `arrival="announce"`, `noise_m=0.02`, `random_start=True` (odometry at a random pose).
 
     ## Version History
@@ -107,6 +107,12 @@ class PicoHospitalEnv(PicoEnv):
         config: EnvConfig | None = None,
         **options: Any,
     ) -> None:
+        if "closed_doors" in options:
+            raise TypeError(
+                "closed_doors is a reset option naming the doors to close (reset(options={'closed_doors': [1]})); "
+                f"the number of doors drawn closed per episode is n_closed_doors=(lo, hi), got closed_doors="
+                f"{options['closed_doors']!r}"
+            )
         fixed = resolve_map(map, map_path)
         env_config = EnvConfig.make(config, task=HospitalTaskConfig(), **options)
         if not isinstance(env_config.task, HospitalTaskConfig):

@@ -27,6 +27,7 @@ from typing import Any, Literal
 import numpy as np
 
 from pico_gym.jit import njit
+from pico_gym.metrics import EpisodeMetrics, max_of, median_of
 from pico_gym.robot import RobotConfig
 from pico_gym.sensors.lrf import LrfConfig
 from pico_gym.tasks.base import IDLE_TIME_S, ConfiguredTask, Episode, IdleRule, StepContext, StepOutcome
@@ -861,3 +862,63 @@ def parking_side(world: Map, wall: FloatArray, resolution: float) -> tuple[Float
         except ValueError:
             continue
     raise MapError(f"{where}: parking_wall: neither side of it has room for the robot inside a closed building")
+
+
+class ExploreMetrics(EpisodeMetrics):
+    """What an explore episode's record carries beyond the common core: parked, explored (every
+    room seen when it parked), coverage, the parking error and time, and the IoU of the agent's
+    map (`map_belief()`, if it hands one over) with the true free space."""
+
+    def finish(self, env: Any, info: dict[str, Any], agent: Any) -> dict[str, Any]:
+        error = info["parking_error"]
+        map_belief = getattr(agent, "map_belief", None)
+        return {
+            "parked": bool(info["parked"]),
+            "explored": bool(info["explored"]),
+            "coverage": float(info["coverage"]),
+            "min_room_coverage": float(min(info["room_coverage"])),
+            "time_to_park_s": info["time_to_park"],
+            "parking_heading_deg": math.degrees(error["heading_rad"]) if error else None,
+            "parking_lateral_m": error["lateral_m"] if error else None,
+            "map_iou": float(env.unwrapped.belief_iou(map_belief())) if map_belief is not None else None,
+        }
+
+    @classmethod
+    def summarize(cls, records: list[Any]) -> dict[str, Any]:
+        n = len(records)
+        blocks = [r.metrics for r in records]
+        parked = [r for r in records if r.metrics["parked"]]
+        ious = [b["map_iou"] for b in blocks if b["map_iou"] is not None]
+        return {
+            "parked_rate": len(parked) / n,
+            "explored_and_parked_rate": sum(bool(r.metrics["explored"]) for r in parked) / n,
+            "found_of_parked_rate": sum(r.success for r in parked) / len(parked) if parked else math.nan,
+            "rooms_covered_rate": sum((b["min_room_coverage"] or 0.0) >= 0.95 for b in blocks) / n,
+            "parking_heading_max_deg": max_of(r.metrics["parking_heading_deg"] for r in parked),
+            "time_to_park_median_s": median_of(r.metrics["time_to_park_s"] for r in parked),
+            "map_iou_median": float(np.median(ious)) if ious else math.nan,
+            "map_iou_min": float(min(ious)) if ious else math.nan,
+            "map_iou_at_least_0_9_rate": sum(v >= 0.9 for v in ious) / len(ious) if ious else math.nan,
+        }
+
+    @classmethod
+    def summary_rows(cls, block: dict[str, Any]) -> list[tuple[str, str]]:
+        rows = [
+            (
+                "explored and parked",
+                f"{100 * block['explored_and_parked_rate']:.1f} % (parked {100 * block['parked_rate']:.1f} %)",
+            ),
+            ("object found, of the parked", f"{100 * block['found_of_parked_rate']:.1f} %"),
+            ("every room >= 95 % seen", f"{100 * block['rooms_covered_rate']:.1f} % of episodes"),
+            ("parking heading error, worst", f"{block['parking_heading_max_deg']:.1f} deg"),
+            ("time to park, median", f"{block['time_to_park_median_s']:.1f} s"),
+        ]
+        if not math.isnan(block["map_iou_median"]):
+            rows.append(
+                (
+                    "map IoU (free space) median / worst",
+                    f"{block['map_iou_median']:.3f} / {block['map_iou_min']:.3f} "
+                    f"({100 * block['map_iou_at_least_0_9_rate']:.0f} % of episodes >= 0.9)",
+                )
+            )
+        return rows

@@ -18,6 +18,7 @@ from typing import Any, Literal
 import numpy as np
 
 from pico_gym.jit import njit
+from pico_gym.metrics import EpisodeMetrics
 from pico_gym.robot import RobotConfig
 from pico_gym.tasks.base import (
     IDLE_TIME_S,
@@ -89,8 +90,8 @@ class HospitalTaskConfig:
 
     Attributes:
         n_cabinets: cabinets in a drawn order (at most the map's number of cabinets).
-        closed_doors: range of the number of doors drawn closed (never one that cuts the start
-            or a target off).
+        n_closed_doors: range of the number of doors drawn closed (never one that cuts the start
+            or a target off); the reset option `closed_doors` names the doors instead.
         n_boxes: range of the number of unknown boxes.
         box_side_m: range of a box's sides [m].
         n_movers: range of the number of walking people drawn when the map has no movers.
@@ -113,7 +114,7 @@ class HospitalTaskConfig:
     """
 
     n_cabinets: int = 3
-    closed_doors: tuple[int, int] = (0, 1)
+    n_closed_doors: tuple[int, int] = (0, 1)
     n_boxes: tuple[int, int] = (0, 2)
     box_side_m: tuple[float, float] = (0.2, 0.6)
     n_movers: tuple[int, int] = (0, 1)
@@ -142,7 +143,7 @@ class HospitalTaskConfig:
             raise ValueError(f"collision must be 'terminate' or 'continue', got {self.collision!r}")
         if not (isinstance(self.n_cabinets, int) and self.n_cabinets >= 1):
             raise ValueError(f"n_cabinets must be an integer >= 1, got {self.n_cabinets!r}")
-        for name in ("closed_doors", "n_boxes", "n_movers"):
+        for name in ("n_closed_doors", "n_boxes", "n_movers"):
             value = getattr(self, name)
             if isinstance(value, int) and not isinstance(value, bool):
                 object.__setattr__(self, name, (value, value))  # n means exactly n: (n, n)
@@ -341,7 +342,7 @@ class HospitalTask(ConfiguredTask):
                     "from a cabinet of the order"
                 )
             return closed
-        lo, hi = self.config.closed_doors
+        lo, hi = self.config.n_closed_doors
         k = min(int(rng.integers(lo, hi + 1)), n)
         while k > 0:  # fewer doors when no draw of k keeps every target reachable
             for _ in range(20):
@@ -783,3 +784,40 @@ def _draw_person(
             continue
         return record
     return None
+
+
+class HospitalMetrics(EpisodeMetrics):
+    """What a hospital episode's record carries beyond the common core: when each cabinet of the
+    order was counted (`leg_done_s`, simulated seconds) and the false announcements; its progress
+    is the fraction of the order done."""
+
+    columns = (
+        ("progress", lambda s: f"{100 * s.progress_mean:.1f} %"),
+        ("bumps by kind", lambda s: ", ".join(f"{k} {n}" for k, n in s.bumps_by_kind.items() if n) or "-"),
+        ("s within 0.5 m of a mover", lambda s: f"{s.near_mover_s_mean:.1f}"),
+    )
+    figures = ("legs", "bumps")
+
+    def reset(self, env: Any, info: dict[str, Any]) -> None:
+        self.order = info["task"].cabinet_order
+        self.legs: list[float] = []
+
+    def step(self, env: Any, info: dict[str, Any]) -> None:
+        if info["cabinets_done"] > len(self.legs):
+            self.legs.append(round(float(info["sim_time"]), 6))
+
+    def progress(self, info: dict[str, Any]) -> float:
+        return float(info["cabinets_done"]) / len(self.order)
+
+    def finish(self, env: Any, info: dict[str, Any], agent: Any) -> dict[str, Any]:
+        return {"false_announcements": int(info["false_announcements"]), "leg_done_s": self.legs}
+
+    @classmethod
+    def summarize(cls, records: list[Any]) -> dict[str, Any]:
+        n = len(records)
+        return {"no_false_announcement_rate": sum(r.metrics["false_announcements"] == 0 for r in records) / n}
+
+    @classmethod
+    def summary_rows(cls, block: dict[str, Any]) -> list[tuple[str, str]]:
+        rate = block["no_false_announcement_rate"]
+        return [("no false announcement", f"{100 * rate:.1f} % of episodes")] if rate < 1.0 else []

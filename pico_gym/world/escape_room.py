@@ -42,7 +42,6 @@ class EscapeRoomConfig:
         corridor_tilt_rad: each corridor wall deviates from the wall normal by up to this [rad].
         n_obstacles: number of small static boxes placed in the room (0 = off, the default).
         obstacle_side_m: range of the obstacles' side lengths [m].
-        start_clearance_m: minimum distance of the start footprint from every wall [m].
     """
 
     room_side_m: tuple[float, float] = (2.5, 7.0)
@@ -55,7 +54,6 @@ class EscapeRoomConfig:
     corridor_tilt_rad: float = math.radians(1.5)
     n_obstacles: int = 0
     obstacle_side_m: tuple[float, float] = (0.2, 0.5)
-    start_clearance_m: float = 0.05
 
     def __post_init__(self) -> None:
         # Budget: a room side beyond this makes the geodesic grid and the generator's checks
@@ -70,7 +68,6 @@ class EscapeRoomConfig:
         number("EscapeRoomConfig.wall_bend_m", self.wall_bend_m, 0.0, 0.2)
         number("EscapeRoomConfig.corridor_tilt_rad", self.corridor_tilt_rad, 0.0, 0.2)
         number("EscapeRoomConfig.n_obstacles", self.n_obstacles, 0, 50, integer=True)
-        number("EscapeRoomConfig.start_clearance_m", self.start_clearance_m, 0.0, 1.0)
         if self.corridor_width_m[0] < 0.5:
             raise ValueError("EscapeRoomConfig.corridor_width_m must start at >= 0.5 m (the challenge's rule)")
         if self.finish_depth_m[0] <= 3.0:
