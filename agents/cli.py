@@ -23,6 +23,11 @@ from pico_gym.registry import DEFAULT_ENV_ID, TASKS, task_info
 
 def _set_option(key: str, text: str, env_id: str) -> Any:
     """The value of `--set KEY=TEXT`, checked against the env config's field of that name."""
+    if key == "family":  # a named family of generated worlds: the env checks the name now
+        import gymnasium as gym
+
+        gym.make(env_id, family=text).close()
+        return text
     fields = _config_fields(env_id)
     if key not in fields:
         close = difflib.get_close_matches(key, fields, n=3)
@@ -104,13 +109,13 @@ def _add_workers(p: argparse.ArgumentParser) -> None:
     )
 
 
-def _common(p: argparse.ArgumentParser) -> None:
+def _common(p: argparse.ArgumentParser, seed_default: int | None = 0) -> None:
     _add_env(p)
     p.add_argument("--agent", choices=tuple(AGENT_ENTRIES), help="the agent (default: the task's own)")
     where = p.add_mutually_exclusive_group()
     where.add_argument("--map", help="a shipped map (default: generated rooms)")
     where.add_argument("--map-path", help="a map file")
-    p.add_argument("--seed", type=int, default=0, help="the (first) episode's seed")
+    p.add_argument("--seed", type=int, default=seed_default, help="the (first) episode's seed (default: 0)")
     p.add_argument(
         "--set",
         action="append",
@@ -143,7 +148,7 @@ def _reset_options(args: argparse.Namespace) -> dict[str, Any]:
     if options:
         env = gym.make(args.env, **_env_options(args))
         try:
-            env.reset(seed=args.seed, options=options)
+            env.reset(seed=args.seed or 0, options=options)
         except ValueError as error:
             raise ValueError(f"--option: {error}") from None
         finally:
@@ -223,48 +228,69 @@ def cmd_run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _bench_episodes(args: argparse.Namespace) -> tuple[Any, str]:
+    """The episodes `pico-gym bench` runs (`Episodes`), and how to describe their seeds: a suite's
+    split (`--suite NAME --split dev|test`: the suite's own seeds; `--episodes` may take fewer),
+    or `--episodes` from `--seed` in the worlds the options ask for."""
+    from pico_gym.agents.compare import Episodes
+    from pico_gym.registry import Suite, SuiteGroup
+
+    options = _env_options(args)
+    if args.suite is None:
+        if args.split is not None:
+            raise ValueError("--split needs --suite (the suite whose seed split to run)")
+        seed, n = args.seed if args.seed is not None else 0, args.episodes or 100
+        label = args.map or (Path(args.map_path).stem if args.map_path else "generated")
+        suite = Suite(label, label, (SuiteGroup(label),))
+        return Episodes.of(suite, range(seed, seed + n), options, args.env), f"seeds {seed}..{seed + n - 1}"
+    suite = task_info(args.env).suite(args.suite)
+    if args.split is not None:
+        if args.seed is not None:
+            raise ValueError(f"--split {args.split} runs the suite's own seeds: leave out --seed")
+        seeds = suite.seeds(args.split)
+        if args.episodes is not None:
+            seeds = seeds[: args.episodes]
+        where = f"suite {suite.name}, {args.split} split, seeds {seeds[0]}..{seeds[-1]}"
+    else:
+        seed, n = args.seed if args.seed is not None else 0, args.episodes or 100
+        seeds = range(seed, seed + n)
+        where = f"suite {suite.name}, seeds {seed}..{seed + n - 1}"
+    return Episodes.of(suite, seeds, options, args.env), where
+
+
 def cmd_bench(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
-    from pico_gym.agents.evaluation import format_summary, run_episodes, summarize
+    from pico_gym.agents.compare import protocol_row, run_comparison, settings_of
+    from pico_gym.agents.evaluation import format_summary, summarize
 
-    options = _env_options(args)
+    episodes, where = _bench_episodes(args)
     reset_options = _reset_options(args)
     if args.json and not Path(args.json).resolve().parent.is_dir():
         raise ValueError(f"--json {args.json}: folder {Path(args.json).resolve().parent} does not exist")
-    seeds = range(args.seed, args.seed + args.episodes)
     args.agent = _agent(args)
-    with tqdm(total=args.episodes, desc=f"{args.agent}", unit="ep", file=sys.stderr, disable=args.quiet) as bar:
-        records = run_episodes(
-            args.agent,
-            seeds,
-            options,
-            _agent_kwargs(args, args.agent),
-            args.workers,
-            bar.update,
-            args.env,
-            args.ray,
-            reset_options,
-        )
+    total = sum(len(seeds) for _, seeds in episodes.groups)
+    kwargs = {args.agent: _agent_kwargs(args, args.agent)}
+    with tqdm(total=total, desc=f"{args.agent}", unit="ep", file=sys.stderr, disable=args.quiet) as bar:
+        results = run_comparison([args.agent], episodes, kwargs, args.workers, bar.update, args.ray, reset_options)
+    records = results[args.agent]
     summary = summarize(records, args.env)
     print(format_summary(args.agent, summary))
-    last = args.seed + args.episodes - 1
+    options = episodes.env_options
     print(
-        f"  env                      {args.env} {options or '(defaults: generated worlds)'}; seeds {args.seed}..{last}"
+        f"  env                      {args.env} {options or '(defaults: generated worlds)'}; {where}"
         + (f"; reset options {reset_options}" if reset_options else "")
     )
     failures = [r for r in records if not r.success]
     if failures:
         shown = ", ".join(f"{r.seed}:{r.termination_reason}" for r in failures[:20])
         print(f"  failures (seed:reason)   {shown}{' ...' if len(failures) > 20 else ''}")
+    if args.suite is not None:
+        print(protocol_row(args.suite, args.split or "-", args.agent, summary))
     if args.json:
         payload = {
-            "agent": args.agent,
-            "env_id": args.env,
-            "env_options": options,
-            "reset_options": reset_options,
-            "seeds": [args.seed, args.seed + args.episodes - 1],
-            "summary": summary.to_dict(),
+            "settings": {**settings_of([args.agent], episodes, kwargs), "reset_options": reset_options},
+            "summary": {args.agent: summary.to_dict()},
             "episodes": [r.to_dict() for r in records],
         }
         Path(args.json).write_text(json.dumps(payload, indent=1) + "\n")
@@ -285,8 +311,14 @@ def add_run(sub: argparse._SubParsersAction) -> None:
 
 def add_bench(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("bench", help="run seeded episodes with an agent and print the figures")
-    _common(p)
-    p.add_argument("--episodes", type=int, default=100, help="episodes, on seeds --seed, --seed + 1, ...")
+    _common(p, seed_default=None)
+    p.add_argument(
+        "--episodes", type=int, help="episodes (per group of a suite), on seeds --seed, --seed + 1, ... (default: 100)"
+    )
+    p.add_argument("--suite", help=_suite_help())
+    p.add_argument(
+        "--split", choices=("dev", "test"), help="with --suite: its dev or test seeds (the benchmark protocol)"
+    )
     _add_workers(p)
     p.add_argument("--json", help="write per-episode records and the summary as JSON")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -296,14 +328,24 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
 def cmd_compare(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
-    from pico_gym.agents.compare import Episodes, compare, markdown_table
+    from pico_gym.agents.compare import Episodes, compare, markdown_table, read_results, report
 
+    if args.from_:
+        # Records already run (`pico-gym bench --json`, earlier compares): the table and figures.
+        results, episodes = read_results(args.from_)
+        summaries = report(results, episodes, Path(args.out), n_rooms=0)
+        print(markdown_table(summaries, episodes.env_id))
+        print(f"wrote {args.out}/results.md, results.json, results.csv and the figures ({len(results)} agents)")
+        return 0
     agents = [a.strip() for a in args.agents.split(",") if a.strip()]
     unknown = [a for a in agents if a not in AGENT_ENTRIES]
     if unknown or not agents:
         print(f"pico-gym compare: unknown agent(s) {unknown}; agents: {', '.join(AGENT_ENTRIES)}", file=sys.stderr)
         return 2
     episodes = Episodes.suite(args.suite, args.episodes, args.seed, _env_options(args), args.env)
+    if args.split is not None:
+        suite = task_info(args.env).suite(args.suite)
+        episodes = Episodes.of(suite, suite.seeds(args.split)[: args.episodes], _env_options(args), args.env)
     total = len(agents) * sum(len(seeds) for _, seeds in episodes.groups)
     kwargs = {a: _agent_kwargs(args, a) for a in agents}
     with tqdm(total=total, desc="compare", unit="ep", file=sys.stderr, disable=args.quiet) as bar:
@@ -331,6 +373,16 @@ def add_compare(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--episodes", type=int, default=50, help="episodes per suite part (rooms, or starts per map)")
     p.add_argument("--seed", type=int, default=1000, help="first seed (PPO trains on seeds >= 1,000,000)")
     p.add_argument("--suite", default="generated", help=_suite_help())
+    p.add_argument(
+        "--split", choices=("dev", "test"), help="the suite's dev or test seeds (--episodes of them) instead of --seed"
+    )
+    p.add_argument(
+        "--from",
+        dest="from_",
+        nargs="+",
+        metavar="JSON",
+        help="no episodes: the table and figures of results files (pico-gym bench --json, compare) side by side",
+    )
     p.add_argument("--out", default="compare", help="output directory")
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="an env option (repeatable)")
     p.add_argument("--policy", help=POLICY_HELP)

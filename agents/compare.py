@@ -84,6 +84,7 @@ def run_comparison(
     workers: int | None = None,
     progress: Callable[[int], None] | None = None,
     ray_address: str | None = None,
+    reset_options: dict[str, Any] | None = None,
 ) -> dict[str, list[EpisodeRecord]]:
     """Every agent on every episode; records per agent in (group, seed) order."""
     agent_kwargs = agent_kwargs or {}
@@ -100,9 +101,66 @@ def run_comparison(
                 progress,
                 episodes.env_id,
                 ray_address,
+                reset_options,
             )
         results[name] = records
     return results
+
+
+def settings_of(
+    agents: Sequence[str], episodes: Episodes, agent_kwargs: dict[str, dict[str, Any]] | None = None
+) -> dict[str, Any]:
+    """What results.json says about how its episodes were run (and `read_results` reads back)."""
+    return {
+        "agents": list(agents),
+        "agent_kwargs": {k: {kk: str(vv) for kk, vv in v.items()} for k, v in (agent_kwargs or {}).items()},
+        "env_id": episodes.env_id,
+        "env_options": episodes.env_options,
+        "episodes": [
+            {"group": g.label, "env_kwargs": dict(g.env_kwargs), "seeds": list(s)} for g, s in episodes.groups
+        ],
+    }
+
+
+def read_results(paths: Sequence[str | Path]) -> tuple[dict[str, list[EpisodeRecord]], Episodes]:
+    """The records of results.json files (`pico-gym bench --json`, `pico-gym compare`), for a table
+    of their agents side by side; they must hold the same env and the same episodes.
+
+    Raises:
+        ValueError: naming the file that is not a results file, or whose episodes differ.
+    """
+    results: dict[str, list[EpisodeRecord]] = {}
+    first: tuple[str, Any] | None = None
+    episodes: Episodes | None = None
+    for path in paths:
+        try:
+            payload = json.loads(Path(path).read_text())
+            settings = payload["settings"]
+            key = (settings["env_id"], [(g["group"], g["seeds"]) for g in settings["episodes"]])
+            records = [EpisodeRecord.from_dict(r) for r in payload["episodes"]]
+        except (OSError, ValueError, KeyError, TypeError) as exc:
+            raise ValueError(f"{path}: not a results file of pico-gym bench --json or compare ({exc})") from None
+        if first is None:
+            first = key
+            groups = tuple(
+                (SuiteGroup(g["group"], g.get("env_kwargs", {})), tuple(g["seeds"])) for g in settings["episodes"]
+            )
+            episodes = Episodes(groups, dict(settings.get("env_options") or {}), settings["env_id"])
+        elif key != first:
+            raise ValueError(f"{path}: other episodes ({key[0]}, {len(key[1])} groups) than {paths[0]}'s")
+        for r in records:
+            results.setdefault(r.agent, []).append(r)
+    assert episodes is not None
+    return results, episodes
+
+
+def protocol_row(suite: str, split: str, agent: str, s: Summary) -> str:
+    """The benchmark protocol's table row of one agent on one suite and split (docs/benchmarks.md)."""
+    kinds = ", ".join(f"{k} {n}" for k, n in s.bumps_by_kind.items() if n) or "-"
+    return (
+        f"| {suite} | {split} | {agent} | {s.episodes} | {100 * s.success_rate:.1f} % | {100 * s.bump_rate:.1f} % | "
+        f"{kinds} | {s.spl:.3f} | {s.sct_median:.3f} | {_seconds(s.time_median_s)} |"
+    )
 
 
 # --- outputs --------------------------------------------------------------------------------
@@ -397,15 +455,23 @@ def compare(
         make_agent(name, probe, **(agent_kwargs or {}).get(name, {}))
     probe.close()
     results = run_comparison(agents, episodes, agent_kwargs, workers, progress, ray_address)
-    settings = {
-        "agents": list(agents),
-        "agent_kwargs": {k: {kk: str(vv) for kk, vv in v.items()} for k, v in (agent_kwargs or {}).items()},
-        "env_id": episodes.env_id,
-        "env_options": episodes.env_options,
-        "episodes": [
-            {"group": g.label, "env_kwargs": dict(g.env_kwargs), "seeds": list(s)} for g, s in episodes.groups
-        ],
-    }
+    return report(results, episodes, out, n_rooms, agent_kwargs, settings_of(agents, episodes, agent_kwargs))
+
+
+def report(
+    results: dict[str, list[EpisodeRecord]],
+    episodes: Episodes,
+    out: Path,
+    n_rooms: int = 3,
+    agent_kwargs: dict[str, dict[str, Any]] | None = None,
+    settings: dict[str, Any] | None = None,
+) -> dict[str, Summary]:
+    """results.{md,json,csv} and the figures of records already run (`n_rooms` > 0 replays the
+    trajectories' episodes); returns the summaries."""
+    require("matplotlib", "plots", "pico-gym compare's plots")
+    out.mkdir(parents=True, exist_ok=True)
+    agents = list(results)
+    settings = settings or settings_of(agents, episodes, agent_kwargs)
     summaries = write_results(out, results, settings, episodes)
     plot_results(out, results, summaries)
     figures = task_info(episodes.env_id).load_metrics().figures

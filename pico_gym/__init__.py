@@ -13,6 +13,15 @@ __version__ = "0.1.0"
 
 _BUSY_2019 = {"map": "hospital_2019", "n_boxes": (2, 2), "n_movers": (1, 1), "n_closed_doors": (1, 1)}
 
+
+def _family(name: str, description: str, dev: int, test: int) -> Suite:
+    """A suite of one generator family (`gym.make(..., family=name)`), its seed splits fixed."""
+    return Suite(name, description, (SuiteGroup(name, {"family": name}),), dev_seeds=dev, test_seeds=test)
+
+
+# Seed splits of the benchmark protocol (docs/benchmarks.md): dev seeds to tune on, test seeds to
+# report on, never overlapping (and below PPO's evaluation seeds, 900,000.., and training's, 1e6..).
+
 BUILTIN_TASKS = (
     TaskInfo(
         "PicoEscape-v0",
@@ -21,6 +30,11 @@ BUILTIN_TASKS = (
         worlds="rooms",
         map_prefix="escape",
         map_kwargs={"sample_start": True},
+        suites=(
+            Suite("generated", "generated rooms", (SuiteGroup("generated"),), dev_seeds=1000, test_seeds=8000),
+            _family("cluttered", "rooms with 3-5 boxes", 510_000, 610_000),
+            _family("narrow", "corridors 0.5-0.6 m wide", 520_000, 620_000),
+        ),
     ),
     TaskInfo(
         "PicoHospital-v0",
@@ -40,6 +54,11 @@ BUILTIN_TASKS = (
         ),  # fmt: skip
         lrf_maps=("hospital_2019", "hospital_2021"),
         suites=(
+            Suite("generated", "generated hospitals", (SuiteGroup("generated"),), dev_seeds=200, test_seeds=73_200),
+            _family(
+                "narrow", "hallway 1.0-1.2 m, doors 0.55-0.7 m, 1-2 people walking towards the start", 530_000, 630_000
+            ),  # fmt: skip
+            _family("crowded", "2-3 people and 2-3 boxes", 540_000, 640_000),
             Suite(
                 "hospital",
                 "generated hospitals, hospital_2019 with a closed door, 2 boxes and a person, and hospital_2021",
@@ -61,6 +80,14 @@ BUILTIN_TASKS = (
         bench_rows=(
             BenchRow("generated 2018 hospitals, defaults"),
             BenchRow("generated 2018 hospitals, collision=continue", {"collision": "continue"}),
+        ),
+        suites=(
+            Suite(
+                "generated", "generated 2018 hospitals", (SuiteGroup("generated"),), dev_seeds=1000, test_seeds=74_000
+            ),  # fmt: skip
+            _family("comb", "rooms off a side corridor, like the teeth of a comb", 550_000, 650_000),
+            _family("deep-L", "an L hallway with its rooms at the far end of its far leg", 560_000, 660_000),
+            _family("nested", "rooms in rows behind one another, one reached through two others", 570_000, 670_000),
         ),
     ),
 )

@@ -94,7 +94,8 @@ class TaskInfo:
             common core, and how its summaries and tables show it).
         bench_rows: `bench-env --env` rows (empty: the escape env's own benchmark).
         lrf_maps: shipped maps whose scan rate `bench-env --env` measures.
-        suites: the task's own suites, beyond "generated", "maps" and "all" (which every task has).
+        suites: the task's own suites; "generated", "maps" and "all" every task has (a suite of
+            the task's own by one of those names replaces it, e.g. to fix its seed splits).
     """
 
     env_id: str
@@ -123,6 +124,9 @@ class TaskInfo:
         Raises:
             ValueError: for a name the task has no suite of, listing those it has.
         """
+        for suite in self.suites:
+            if suite.name == name:
+                return suite
         if name == "generated":
             return Suite("generated", f"generated {self.worlds}", (SuiteGroup("generated"),))
         if name in ("maps", "all"):
@@ -130,13 +134,11 @@ class TaskInfo:
             if name == "maps":
                 return Suite("maps", f"{self.env_id}'s shipped maps", maps)
             return Suite("all", f"generated {self.worlds} and the shipped maps", (SuiteGroup("generated"), *maps))
-        for suite in self.suites:
-            if suite.name == name:
-                return suite
         raise ValueError(f"{self.env_id} has no suite {name!r}; its suites: {', '.join(self.suite_names())}")
 
     def suite_names(self) -> tuple[str, ...]:
-        return ("generated", "maps", "all", *(s.name for s in self.suites))
+        own = tuple(s.name for s in self.suites)
+        return (*own, *(n for n in ("generated", "maps", "all") if n not in own))
 
     def load_metrics(self) -> Callable[[], Any]:
         """The task's metrics class (imported on first use)."""

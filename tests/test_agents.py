@@ -145,8 +145,11 @@ def test_bench_json_has_the_documented_fields(tmp_path: Path, capsys: pytest.Cap
     assert [e["seed"] for e in data["episodes"]] == [7, 8, 9]
     for e in data["episodes"]:
         assert EPISODE_FIELDS <= set(e)
-    assert SUMMARY_FIELDS <= set(data["summary"])
-    assert 0.0 <= data["summary"]["success_rate"] <= 1.0 and not math.isnan(data["summary"]["spl"])
+    summary = data["summary"]["classic"]  # compare's layout: a summary per agent
+    assert SUMMARY_FIELDS <= set(summary)
+    assert 0.0 <= summary["success_rate"] <= 1.0 and not math.isnan(summary["spl"])
+    assert data["settings"]["env_id"] == "PicoEscape-v0"
+    assert data["settings"]["episodes"] == [{"group": "generated", "env_kwargs": {}, "seeds": [7, 8, 9]}]
 
 
 def test_run_prints_the_outcome_and_writes_a_gif(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -162,6 +162,22 @@ class EnvConfig:
         return with_overrides(base, **overrides)
 
 
+def with_family(env_id: str, families: dict[str, dict[str, Any]], options: dict[str, Any]) -> dict[str, Any]:
+    """`gym.make` options with a named family's settings under them (`family=NAME`; what the
+    user gives explicitly wins).
+
+    Raises:
+        ValueError: for a family the env does not have, listing those it has.
+    """
+    family = options.pop("family", None)
+    if family is None:
+        return options
+    if not isinstance(family, str) or family not in families:
+        known = ", ".join(families) or "(none)"
+        raise ValueError(f"{env_id} has no family {family!r}; its families: {known}")
+    return {**families[family], **options}
+
+
 def resolve_map(map_name: str | Map | None, map_path: str | os.PathLike[str] | None) -> Map | None:
     """The fixed map an env was asked for: a shipped map's name (or a `Map`), a file, or None."""
     from pico_gym.world.catalog import load_shipped

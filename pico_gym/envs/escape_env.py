@@ -5,8 +5,8 @@ from __future__ import annotations
 import os
 from typing import Any
 
-from pico_gym.envs.base import EnvConfig, PicoEnv, resolve_map
-from pico_gym.tasks.escape import EscapeTask, EscapeTaskConfig
+from pico_gym.envs.base import EnvConfig, PicoEnv, resolve_map, with_family
+from pico_gym.tasks.escape import FAMILIES, EscapeTask, EscapeTaskConfig
 from pico_gym.world.map import Map
 
 
@@ -92,6 +92,7 @@ class PicoEscapeEnv(PicoEnv):
         config: EnvConfig | None = None,
         **options: Any,
     ) -> None:
+        options = with_family("PicoEscape-v0", FAMILIES, options)
         fixed = resolve_map(map, map_path)
         env_config = EnvConfig.make(config, task=EscapeTaskConfig(), **options)
         super().__init__(EscapeTask(env_config.task, env_config.robot, fixed), env_config, render_mode)

@@ -8,8 +8,8 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from pico_gym.envs.base import EnvConfig, PicoEnv, resolve_map
-from pico_gym.tasks.explore import ExploreTask, ExploreTaskConfig, ExploreTaskSpec, OccupancyBelief
+from pico_gym.envs.base import EnvConfig, PicoEnv, resolve_map, with_family
+from pico_gym.tasks.explore import FAMILIES, ExploreTask, ExploreTaskConfig, ExploreTaskSpec, OccupancyBelief
 from pico_gym.world.map import Map
 
 
@@ -91,6 +91,7 @@ class PicoExploreEnv(PicoEnv):
         config: EnvConfig | None = None,
         **options: Any,
     ) -> None:
+        options = with_family("PicoExplore-v0", FAMILIES, options)
         fixed = resolve_map(map, map_path)
         env_config = EnvConfig.make(config, task=ExploreTaskConfig(), **options)
         if not isinstance(env_config.task, ExploreTaskConfig):

@@ -5,8 +5,8 @@ from __future__ import annotations
 import os
 from typing import Any
 
-from pico_gym.envs.base import EnvConfig, PicoEnv, resolve_map
-from pico_gym.tasks.hospital import HospitalTask, HospitalTaskConfig, HospitalTaskSpec
+from pico_gym.envs.base import EnvConfig, PicoEnv, resolve_map, with_family
+from pico_gym.tasks.hospital import FAMILIES, HospitalTask, HospitalTaskConfig, HospitalTaskSpec
 from pico_gym.world.map import Map
 
 
@@ -113,6 +113,7 @@ class PicoHospitalEnv(PicoEnv):
                 f"the number of doors drawn closed per episode is n_closed_doors=(lo, hi), got closed_doors="
                 f"{options['closed_doors']!r}"
             )
+        options = with_family("PicoHospital-v0", FAMILIES, options)
         fixed = resolve_map(map, map_path)
         env_config = EnvConfig.make(config, task=HospitalTaskConfig(), **options)
         if not isinstance(env_config.task, HospitalTaskConfig):

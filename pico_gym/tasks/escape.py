@@ -38,6 +38,15 @@ TIME_LIMIT_S = 300.0
 TERMINATION_REASONS = ("escaped", "bump", "idle", "timeout")
 
 
+# Named families of generated escape rooms (`gym.make("PicoEscape-v0", family=NAME)`), harder
+# than the rules' defaults in one way each: "cluttered" (3-5 boxes in the room) and "narrow" (a
+# corridor at the rules' narrow end, 0.5-0.6 m).
+FAMILIES: dict[str, dict[str, Any]] = {
+    "cluttered": {"n_obstacles": (3, 5)},
+    "narrow": {"corridor_width_m": (0.5, 0.6)},
+}
+
+
 @dataclass(frozen=True)
 class RewardWeights:
     """Weights of the named reward terms; reward = sum of weight * term.

@@ -53,6 +53,17 @@ IOU_RESOLUTION_M = 0.0125
 IOU_MAX_CELLS = 4_000_000  # coarser on a building larger than 25 m x 25 m (memory)
 
 
+# Named families of generated 2018 hospitals (`gym.make("PicoExplore-v0", family=NAME)`), each
+# a layout of the generator that stresses the search (`pico_gym.world.hospital2018`): "comb" (the
+# rooms hang off a side corridor, each with its own door), "deep-L" (the rooms at the far end of
+# an L hallway's far leg), "nested" (4-6 rooms in rows behind one another, one reached through two).
+FAMILIES: dict[str, dict[str, Any]] = {
+    "comb": {"layout": "comb", "nested_probability": 0.0},
+    "deep-L": {"layout": "deep-L"},
+    "nested": {"layout": "nested", "nested_probability": 1.0, "n_rooms": (4, 6)},
+}
+
+
 @dataclass(frozen=True)
 class ExploreRewardWeights:
     """Weights of the named reward terms; reward = sum of weight * term.

@@ -95,6 +95,9 @@ class HospitalTaskConfig:
         n_boxes: range of the number of unknown boxes.
         box_side_m: range of a box's sides [m].
         n_movers: range of the number of walking people drawn when the map has no movers.
+        people_towards_start: drawn people walk the hallway of a generated hospital, starting at
+            the end of their lane farther from the start area (they come towards the robot);
+            otherwise anywhere in the building, either way.
         arrival: "dwell" (a cabinet counts once the robot has stood in its square facing it,
             nearly still, for `dwell_s`; the action is a twist) or "announce" (the action gets a
             fourth component; a positive value announces, as the course's io.speak).
@@ -118,6 +121,7 @@ class HospitalTaskConfig:
     n_boxes: tuple[int, int] = (0, 2)
     box_side_m: tuple[float, float] = (0.2, 0.6)
     n_movers: tuple[int, int] = (0, 1)
+    people_towards_start: bool = False
     arrival: Literal["dwell", "announce"] = "dwell"
     dwell_s: float = 0.5
     dwell_speed_mps: float = 0.05
@@ -141,6 +145,8 @@ class HospitalTaskConfig:
             raise ValueError(f"false_announcement must be 'count' or 'terminate', got {self.false_announcement!r}")
         if self.collision not in ("terminate", "continue"):
             raise ValueError(f"collision must be 'terminate' or 'continue', got {self.collision!r}")
+        if not isinstance(self.people_towards_start, bool):
+            raise ValueError(f"people_towards_start must be true or false, got {self.people_towards_start!r}")
         if not (isinstance(self.n_cabinets, int) and self.n_cabinets >= 1):
             raise ValueError(f"n_cabinets must be an integer >= 1, got {self.n_cabinets!r}")
         for name in ("n_closed_doors", "n_boxes", "n_movers"):
@@ -167,6 +173,21 @@ class HospitalTaskConfig:
     @property
     def idle_rule(self) -> IdleRule:
         return IdleRule(self.idle_time_s, self.idle_speed_mps, self.idle_turn_rate_radps)
+
+
+# Named families of generated hospitals (`gym.make("PicoHospital-v0", family=NAME)`), harder than
+# the 2019 rules' defaults in one way each: "narrow" at the rules' narrow end (hallway 1.0-1.2 m,
+# doors 0.55-0.7 m) with 1-2 people walking the hallway towards the start; "crowded" with 2-3
+# people and 2-3 boxes.
+FAMILIES: dict[str, dict[str, Any]] = {
+    "narrow": {
+        "hallway_width_m": (1.0, 1.2),
+        "door_width_m": (0.55, 0.7),
+        "n_movers": (1, 2),
+        "people_towards_start": True,
+    },
+    "crowded": {"n_movers": (2, 3), "n_boxes": (2, 3)},
+}
 
 
 @dataclass(frozen=True, eq=False)
@@ -236,8 +257,10 @@ class HospitalTask(ConfiguredTask):
     # --- reset -------------------------------------------------------------------------------
     def new_episode(self, rng: np.random.Generator, options: dict[str, Any], start: Pose | None) -> Episode:
         cfg = self.config
+        hallway: tuple[tuple[float, float, float, float], ...] = ()
         if self.fixed_map is None:
-            world = generate_hospital(rng, cfg.hospital, self.robot).map
+            built = generate_hospital(rng, cfg.hospital, self.robot)
+            world, hallway = built.map, built.hallway
             cabinets = cabinets_of(world)
             grid = Grid.covering(world.bounds, cfg.geodesic_resolution_m, margin=0.5)
             base_clearance = _clearance(grid, world)
@@ -266,7 +289,7 @@ class HospitalTask(ConfiguredTask):
 
         closed = self._closed_doors(rng, options.get("closed_doors"), world, reachable, where)
         door_segments = [world.door_segments[d] for d in closed]
-        movers = self._movers(rng, world, grid, base_clearance, area, squares)
+        movers = self._movers(rng, world, grid, base_clearance, area, squares, hallway)
         boxes = self._boxes(rng, world, grid, base_clearance, closed, area, squares, movers, reachable)
         scene = Scene(world, closed, tuple(boxes), Movers(movers))
 
@@ -429,6 +452,7 @@ class HospitalTask(ConfiguredTask):
         clearance: FloatArray,
         area: FloatArray,
         squares: list[FloatArray],
+        hallway: tuple[tuple[float, float, float, float], ...] = (),
     ) -> list[MoverRecord]:
         if world.movers:
             return list(world.movers)  # the map loader made them MoverRecords
@@ -444,8 +468,9 @@ class HospitalTask(ConfiguredTask):
             lanes = _PersonLanes.of(grid, np.where(inside, clearance, 0.0))
             if world is self.fixed_map:
                 self._person_lanes = lanes  # the same every episode of a fixed map
+        towards = hallway if self.config.people_towards_start else ()
         for _ in range(n):
-            record = _draw_person(rng, grid, lanes, area, squares, out)
+            record = _draw_person(rng, grid, lanes, area, squares, out, towards)
             if record is not None:
                 out.append(record)
         return out
@@ -740,19 +765,23 @@ def _draw_person(
     area: FloatArray,
     squares: list[FloatArray],
     others: list[MoverRecord],
+    hallway: tuple[tuple[float, float, float, float], ...] = (),
 ) -> MoverRecord | None:
     """A walking person on a straight 2-6 m path along a grid axis with wall clearance >= half its
     width + 0.15 m, away from the start area and the arrival squares (hospital-facts.md 3);
-    `lanes` keeps the path inside the building."""
+    `lanes` keeps the path inside the building. Given the `hallway`'s legs, the path runs along a
+    leg and starts at its end farther from the start area (the person comes towards the start)."""
     res = grid.resolution
     candidates = lanes.candidates
+    if hallway:
+        candidates = _in_hallway(grid, candidates, hallway)
     if len(candidates) == 0:
         return None
     row_lo, row_hi, col_lo, col_hi = lanes.row_lo, lanes.row_hi, lanes.col_lo, lanes.col_hi
     keep_out = _Keepout([area] + squares + [_mover_lane(o) for o in others])
     for _ in range(40):
         r, c = candidates[int(rng.integers(len(candidates)))]
-        horizontal = bool(rng.random() < 0.5)
+        horizontal = bool(rng.random() < 0.5) if not hallway else _along_leg(grid, r, c, hallway)
         lo, hi = (row_lo[r, c], row_hi[r, c]) if horizontal else (col_lo[r, c], col_hi[r, c])
         free_m = (hi - lo) * res - PERSON_LENGTH_M
         if free_m < 2.0:
@@ -769,6 +798,10 @@ def _draw_person(
             init, final, yaw = (x, y0), (x, y0 + length), math.pi / 2
         if rng.random() < 0.5:
             init, final = final, init
+        if hallway:  # towards the start: from the lane's end farther from it
+            centre = area.mean(axis=0)
+            if math.dist(init, centre) < math.dist(final, centre):
+                init, final = final, init
         record = MoverRecord(
             length=PERSON_LENGTH_M,
             width=PERSON_WIDTH_M,
@@ -784,6 +817,25 @@ def _draw_person(
             continue
         return record
     return None
+
+
+def _in_hallway(grid: Grid, cells: np.ndarray, hallway: tuple[tuple[float, float, float, float], ...]) -> np.ndarray:
+    """The candidate cells (rows of (row, col)) whose centres lie in one of the hallway's legs."""
+    xs = grid.x0 + (cells[:, 1] + 0.5) * grid.resolution
+    ys = grid.y0 + (cells[:, 0] + 0.5) * grid.resolution
+    inside = np.zeros(len(cells), dtype=bool)
+    for x0, y0, x1, y1 in hallway:
+        inside |= (xs > x0) & (xs < x1) & (ys > y0) & (ys < y1)
+    return cells[inside]
+
+
+def _along_leg(grid: Grid, r: int, c: int, hallway: tuple[tuple[float, float, float, float], ...]) -> bool:
+    """Whether the hallway leg holding cell (r, c) runs along x (its longer side)."""
+    x, y = grid.x0 + (c + 0.5) * grid.resolution, grid.y0 + (r + 0.5) * grid.resolution
+    for x0, y0, x1, y1 in hallway:
+        if x0 < x < x1 and y0 < y < y1:
+            return (x1 - x0) >= (y1 - y0)
+    return True
 
 
 class HospitalMetrics(EpisodeMetrics):

@@ -40,7 +40,8 @@ class EscapeRoomConfig:
         corner_jitter_m: room corners are displaced by up to this much [m].
         wall_bend_m: each room wall without the exit is bent at a random point by up to this [m].
         corridor_tilt_rad: each corridor wall deviates from the wall normal by up to this [rad].
-        n_obstacles: number of small static boxes placed in the room (0 = off, the default).
+        n_obstacles: number of small static boxes placed in the room (0 = off, the default), or a
+            range (lo, hi) to draw it from per room.
         obstacle_side_m: range of the obstacles' side lengths [m].
     """
 
@@ -52,7 +53,7 @@ class EscapeRoomConfig:
     corner_jitter_m: float = 0.04
     wall_bend_m: float = 0.04
     corridor_tilt_rad: float = math.radians(1.5)
-    n_obstacles: int = 0
+    n_obstacles: int | tuple[int, int] = 0
     obstacle_side_m: tuple[float, float] = (0.2, 0.5)
 
     def __post_init__(self) -> None:
@@ -67,7 +68,12 @@ class EscapeRoomConfig:
         number("EscapeRoomConfig.corner_jitter_m", self.corner_jitter_m, 0.0, 0.2)
         number("EscapeRoomConfig.wall_bend_m", self.wall_bend_m, 0.0, 0.2)
         number("EscapeRoomConfig.corridor_tilt_rad", self.corridor_tilt_rad, 0.0, 0.2)
-        number("EscapeRoomConfig.n_obstacles", self.n_obstacles, 0, 50, integer=True)
+        if isinstance(self.n_obstacles, int) and not isinstance(self.n_obstacles, bool):
+            number("EscapeRoomConfig.n_obstacles", self.n_obstacles, 0, 50, integer=True)
+        else:  # a range, kept as a tuple of ints
+            object.__setattr__(
+                self, "n_obstacles", span("EscapeRoomConfig.n_obstacles", self.n_obstacles, 0, 50, integer=True)
+            )
         if self.corridor_width_m[0] < 0.5:
             raise ValueError("EscapeRoomConfig.corridor_width_m must start at >= 0.5 m (the challenge's rule)")
         if self.finish_depth_m[0] <= 3.0:
@@ -289,7 +295,10 @@ def _place_obstacles(
     obstacles: list[FloatArray] = []
     room = np.array([bl, br, tr, tl])
     lo, hi = room.min(axis=0) + 0.4, room.max(axis=0) - 0.4
-    for _ in range(cfg.n_obstacles):
+    count = cfg.n_obstacles
+    if not isinstance(count, int):  # a range: drawn per room (a fixed count draws nothing)
+        count = int(rng.integers(count[0], count[1] + 1))
+    for _ in range(count):
         for _attempt in range(50):
             sx, sy = rng.uniform(*cfg.obstacle_side_m, size=2)
             cx, cy = rng.uniform(lo, hi)

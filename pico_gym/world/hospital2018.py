@@ -9,6 +9,11 @@ so a room may be reached through up to `max_depth` - 1 other rooms ("rooms can b
 room may have several doors (its own and those of the rooms behind it). The parking wall is the
 hallway's end wall at the start of its first leg: PICO starts in front of it, facing away.
 
+Layouts (`ExploreHospitalConfig.layout`) beyond the rules' default, each stressing the search in
+one way: "comb" (the rooms hang off a side corridor that branches from the hallway, like the teeth
+of a comb), "deep-L" (an L hallway whose rooms all lie at the far end of its far leg) and "nested"
+(some room is reached through two others).
+
 Every draw comes from the generator passed in.
 """
 
@@ -21,6 +26,7 @@ import numpy as np
 from pico_gym.types import FloatArray
 from pico_gym.validate import number, span
 from pico_gym.world.hospital import (
+    WALL_M,
     Rect,
     _assemble,
     _hallway_legs,
@@ -30,6 +36,12 @@ from pico_gym.world.hospital import (
     shared_wall_door,
 )
 from pico_gym.world.map import Map
+
+LAYOUTS = ("default", "comb", "deep-L", "nested")
+# A comb's side corridor: its width and length ranges [m].
+COMB_CORRIDOR_M = ((1.0, 1.4), (6.0, 9.0))
+# A deep L's far leg: its length range [m]; its rooms lie beyond this fraction of it.
+DEEP_LEG_M, DEEP_FROM = (7.0, 10.0), 0.5
 
 
 @dataclass(frozen=True)
@@ -46,6 +58,8 @@ class ExploreHospitalConfig:
         nested_probability: chance that a room's door leads to its row neighbour (nesting) rather
             than to the hallway.
         max_depth: the most doors on the way from the hallway into any room.
+        layout: "default" (the rules' rows of rooms along the hallway), "comb", "deep-L" or
+            "nested" (module docstring).
     """
 
     hallway_width_m: tuple[float, float] = (1.2, 1.8)
@@ -56,8 +70,11 @@ class ExploreHospitalConfig:
     door_corner_margin_m: float = 0.3
     nested_probability: float = 0.4
     max_depth: int = 3
+    layout: str = "default"
 
     def __post_init__(self) -> None:
+        if self.layout not in LAYOUTS:
+            raise ValueError(f"ExploreHospitalConfig.layout must be one of {LAYOUTS}, got {self.layout!r}")
         span("ExploreHospitalConfig.hallway_width_m", self.hallway_width_m, 1.0, 5.0)
         span("ExploreHospitalConfig.n_rooms", self.n_rooms, 1, 20, integer=True)
         span("ExploreHospitalConfig.room_side_m", self.room_side_m, 2.0, 20.0)
@@ -112,10 +129,13 @@ def generate_explore_hospital(
 
 
 def _try_generate(rng: np.random.Generator, cfg: ExploreHospitalConfig) -> GeneratedExploreHospital | None:
-    shape = str(cfg.hallway_shapes[int(rng.integers(len(cfg.hallway_shapes)))])
-    legs = _hallway_legs(rng, cfg, shape)  # type: ignore[arg-type]  (reads hallway_width_m only)
-    target = int(rng.integers(cfg.n_rooms[0], cfg.n_rooms[1] + 1))
-    rooms, attach, row_of = row_rooms(rng, legs, target, cfg.room_side_m)
+    if cfg.layout == "default":
+        shape = str(cfg.hallway_shapes[int(rng.integers(len(cfg.hallway_shapes)))])
+        legs = _hallway_legs(rng, cfg, shape)  # type: ignore[arg-type]  (reads hallway_width_m only)
+        target = int(rng.integers(cfg.n_rooms[0], cfg.n_rooms[1] + 1))
+        rooms, attach, row_of = row_rooms(rng, legs, target, cfg.room_side_m)
+    else:
+        shape, legs, rooms, attach, row_of = _layout(rng, cfg)
     if len(rooms) < cfg.n_rooms[0]:
         return None
     margin = cfg.door_corner_margin_m
@@ -144,6 +164,8 @@ def _try_generate(rng: np.random.Generator, cfg: ExploreHospitalConfig) -> Gener
             depth.append(1)
         doors.append(door)
         previous[(k, side)] = i
+    if cfg.layout == "nested" and max(depth) < 3:
+        return None  # some room must be reached through two others
     walls = outline_segments(list(legs) + rooms + doors)
     x0, y0, _, y1 = legs[0]
     # From the top end to the bottom one: the building lies on the wall's left.
@@ -162,3 +184,36 @@ def _try_generate(rng: np.random.Generator, cfg: ExploreHospitalConfig) -> Gener
     return GeneratedExploreHospital(
         world, tuple(legs), tuple(rooms), tuple(doors), tuple(parent), tuple(depth), parking_wall, shape
     )
+
+
+def _layout(
+    rng: np.random.Generator, cfg: ExploreHospitalConfig
+) -> tuple[str, list[Rect], list[Rect], list[tuple[int, str]], list[tuple[int, str, int]]]:
+    """The hallway and rooms of a layout other than the default: (shape, legs, rooms, each
+    room's (leg, side), each room's (leg, side, position in its row))."""
+    width = float(rng.uniform(*cfg.hallway_width_m))
+    target = int(rng.integers(cfg.n_rooms[0], cfg.n_rooms[1] + 1))
+    if cfg.layout == "nested":
+        # Long rows, so that a room can sit behind two others.
+        length = float(rng.uniform(9.0, 13.0))
+        legs: list[Rect] = [(0.0, 0.0, length, width)]
+        rooms, attach, row_of = row_rooms(rng, legs, target, cfg.room_side_m)
+        return "I", legs, rooms, attach, row_of
+    if cfg.layout == "comb":
+        # The hallway from the parking wall, and a side corridor branching up from it: the rooms
+        # hang off the side corridor only (the teeth).
+        length = float(rng.uniform(6.0, 9.0))
+        side_w = float(rng.uniform(*COMB_CORRIDOR_M[0]))
+        side_len = float(rng.uniform(*COMB_CORRIDOR_M[1]))
+        at = float(rng.uniform(2.5, length - side_w))
+        legs = [(0.0, 0.0, length, width), (at, width, at + side_w, width + side_len)]
+        teeth = (at, width + WALL_M, at + side_w, width + side_len)  # rows start a wall above the hallway
+        rooms, attach, row_of = row_rooms(rng, [teeth], target, cfg.room_side_m)
+        return "comb", legs, rooms, [(1, side) for _, side in attach], [(1, side, n) for _, side, n in row_of]
+    # deep-L: the rooms lie along the far part of a long far leg.
+    length = float(rng.uniform(6.0, 9.0))
+    up = float(rng.uniform(*DEEP_LEG_M))
+    legs = [(0.0, 0.0, length, width), (length - width, width, length, width + up)]
+    far = (length - width, width + DEEP_FROM * up, length, width + up)
+    rooms, attach, row_of = row_rooms(rng, [far], target, cfg.room_side_m)
+    return "deep-L", legs, rooms, [(1, side) for _, side in attach], [(1, side, n) for _, side, n in row_of]
