@@ -309,11 +309,11 @@ class HybridAgent(HospitalAgent):
         if self.done != self._leg:
             self._leg, self._recoveries, self._leg_start = self.done, 0, self.steps
         self.command = self._decide(self._near)
-        driving = self.state is State.NAVIGATE and bool(self.path) and not self.classic_leg
+        driving = self.state is State.NAVIGATE and bool(self.route.path) and not self.classic_leg
         self._drove = driving
         if driving:
             here = np.array([self.pose.x, self.pose.y])
-            self.waypoint = waypoint_along(here, self.path, self.hybrid.lookahead_m)
+            self.waypoint = waypoint_along(here, self.route.path, self.hybrid.lookahead_m)
         return driving
 
     def goal(self) -> np.ndarray:
@@ -321,9 +321,9 @@ class HybridAgent(HospitalAgent):
         cabinet is done, the robot is at its goal: [0, 0, 1, 0, 1]."""
         if self.done >= len(self.order):
             return np.array([0.0, 0.0, 1.0, 0.0, 1.0], np.float32)
-        wp = self.waypoint if self.waypoint is not None else self._dock_point()
+        wp = self.waypoint if self.waypoint is not None else self.dock_point()
         p = self.pose
-        return encode_goal(p.x, p.y, p.theta, float(wp[0]), float(wp[1]), self._cabinet().facing_rad)
+        return encode_goal(p.x, p.y, p.theta, float(wp[0]), float(wp[1]), self.cabinet().facing_rad)
 
     def policy_input(self, obs: dict[str, np.ndarray]) -> np.ndarray:
         """The policy's input for this step (call after `observe` returned True)."""
@@ -402,13 +402,13 @@ class HybridAgent(HospitalAgent):
         radius = self.hybrid.blind_near_m
         if not self.localised or radius <= 0.0:
             return True
-        g = self.grid
+        g = self.given.grid
         rows, cols = g.shape
         c0 = int((self.pose.x - radius - g.x0) / g.resolution)
         c1 = int((self.pose.x + radius - g.x0) / g.resolution) + 1
         r0 = int((self.pose.y - radius - g.y0) / g.resolution)
         r1 = int((self.pose.y + radius - g.y0) / g.resolution) + 1
-        return bool(self.seen()[max(r0, 0) : min(r1, rows), max(c0, 0) : min(c1, cols)].any())
+        return bool(self.world.seen()[max(r0, 0) : min(r1, rows), max(c0, 0) : min(c1, cols)].any())
 
     def teacher(self) -> np.ndarray:
         """The classic part's own command this step, in the policy's [-1, 1] action units."""

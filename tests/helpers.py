@@ -55,5 +55,5 @@ def person_paused_behind(agent, metres: float = 0.5) -> np.ndarray:  # type: ign
     p = agent.pose
     behind = np.array([p.x - metres * np.cos(p.theta), p.y - metres * np.sin(p.theta)])
     now = agent.steps * agent.spec.dt_s
-    agent.tracker.tracks = [Track(7, behind, np.zeros(2), 0.3, now - 1.0, moving=True)]
+    agent.world.tracker.tracks = [Track(7, behind, np.zeros(2), 0.3, now - 1.0, moving=True)]
     return behind

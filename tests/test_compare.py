@@ -8,8 +8,8 @@ from helpers import EPISODE_FIELDS, SUMMARY_FIELDS
 
 from pico_gym.agents.cli import add_compare
 from pico_gym.agents.compare import Episodes
-from pico_gym.registry import SuiteGroup, task_info
 from pico_gym.cli import main
+from pico_gym.registry import SuiteGroup, task_info
 
 
 def _run(out, *extra):
@@ -98,7 +98,9 @@ def test_suites():
     group = next(g for g, _ in maps.groups if g.label == "escape_2019")
     assert maps.env_kwargs(group) == {"map": "escape_2019", "sample_start": True}
     assert len(Episodes.suite("all", 1, 0).groups) == 1 + len(escape_maps)
-    with pytest.raises(ValueError, match="PicoEscape-v0 has no suite 'nope'; its suites: generated, cluttered, narrow, maps, all"):
+    with pytest.raises(
+        ValueError, match="PicoEscape-v0 has no suite 'nope'; its suites: generated, cluttered, narrow, maps, all"
+    ):
         Episodes.suite("nope", 1, 0)
 
 

@@ -12,7 +12,8 @@ from helpers import person_paused_behind
 
 import pico_gym  # noqa: F401
 from pico_gym.agents import make_agent
-from pico_gym.agents.classic.hospital import HospitalAgent, HospitalAgentConfig, State, _update_evidence
+from pico_gym.agents.classic.hospital import HospitalAgent, HospitalAgentConfig, State, states
+from pico_gym.agents.classic.hospital.evidence import _update_evidence
 
 QUIET = {"n_closed_doors": (0, 0), "n_boxes": (0, 0), "n_movers": (0, 0)}
 
@@ -66,8 +67,8 @@ def test_a_closed_door_is_found_and_planned_around() -> None:
     info, _ = _play(env, agent, seed=5, options={"cabinet_order": [1], "closed_doors": [0]})
     assert info["termination_reason"] == "done" and info["bumps"] == 0
     door = env.unwrapped.episode.scene.map.polygon(env.unwrapped.episode.scene.map.doors[0])
-    g = agent.grid
-    rows, cols = np.nonzero(agent.evidence >= agent.config.evidence_block)
+    g = agent.given.grid
+    rows, cols = np.nonzero(agent.world.evidence >= agent.config.evidence_block)
     xs, ys = g.x0 + (cols + 0.5) * g.resolution, g.y0 + (rows + 0.5) * g.resolution
     lo, hi = door.min(axis=0) - 0.1, door.max(axis=0) + 0.1
     assert ((xs > lo[0]) & (xs < hi[0]) & (ys > lo[1]) & (ys < hi[1])).any()  # the leaf is in the grid
@@ -130,7 +131,7 @@ def _states_of(env: gym.Env, agent: HospitalAgent, seed: int, options: dict | No
     seen = []
     while True:
         obs, _, terminated, truncated, info = env.step(agent.act(obs))
-        seen.append((agent.state, agent.squeeze))
+        seen.append((agent.state, agent.route.squeeze))
         if terminated or truncated:
             return info, seen
 
@@ -177,9 +178,9 @@ def test_yield_waits_for_what_moves_and_hands_a_box_over_to_recover(walking: boo
     agent = make_agent("classic", env)
     obs, info = env.reset(seed=0)
     agent.reset(obs, info)
-    agent.localised, agent.pose = True, env.unwrapped.pose
+    agent.localisation.localised, agent.pose = True, env.unwrapped.pose
     agent._go(State.YIELD)
-    agent._plan = lambda goal: False  # no way through while it is there
+    agent.route.plan = lambda pose, goal, steps: False  # no way through while it is there
     where = {"x": 1.5}
     agent._unexplained_near = lambda within_m=1.5: np.array([[where["x"], 0.0], [where["x"], 0.1]])
     steps = round(agent.config.yield_static_s / env.unwrapped.config.dt_s) + 10
@@ -188,7 +189,7 @@ def test_yield_waits_for_what_moves_and_hands_a_box_over_to_recover(walking: boo
             where["x"] = 1.5 + 0.3 * (agent.steps % 2)  # a new place at every look
         agent.steps += 1
         agent.state_steps += 1
-        agent._yield(np.zeros((0, 2)))
+        states.yield_to(agent, np.zeros((0, 2)))
     assert agent.state is (State.YIELD if walking else State.RECOVER)
 
 
@@ -202,10 +203,10 @@ def test_going_nowhere_is_caught_whatever_the_plans_say() -> None:
     results = []
     for _ in range(limit + 2):
         agent.steps += 1
-        results.append(agent._going_nowhere(spot + 0.01 * (agent.steps % 3)))  # jiggling on the spot
+        results.append(states.going_nowhere(agent, spot + 0.01 * (agent.steps % 3)))  # jiggling on the spot
     assert not any(results[: limit + 1]) and results[limit + 1]  # anchored at the first call
     agent.steps += 1
-    assert not agent._going_nowhere(spot + 0.5)  # moved on: the count starts again
+    assert not states.going_nowhere(agent, spot + 0.5)  # moved on: the count starts again
 
 
 def test_a_walking_person_leaves_no_wall_behind() -> None:
@@ -228,8 +229,8 @@ def test_a_walking_person_leaves_no_wall_behind() -> None:
             if terminated or truncated:
                 break
         old = np.array([p for p in past if np.hypot(*(p - past[-1])) > 1.0])
-        g = agent.grid
-        rows, cols = np.nonzero(agent.seen())
+        g = agent.given.grid
+        rows, cols = np.nonzero(agent.world.seen())
         cells = np.column_stack([g.x0 + (cols + 0.5) * g.resolution, g.y0 + (rows + 0.5) * g.resolution])
         d = np.hypot(cells[:, None, 0] - old[None, :, 0], cells[:, None, 1] - old[None, :, 1]).min(axis=1)
         return int((d < 0.3).sum())
@@ -327,7 +328,7 @@ def test_a_kidnapped_robot_finds_itself_on_the_whole_map_and_finishes(seed: int,
         obs, _, terminated, truncated, info = env.step(action)
         if terminated or truncated:
             break
-    assert agent.relocalised >= 1
+    assert agent.localisation.relocalised >= 1
     assert back_s is not None and back_s < 15.0
     assert info["is_success"] and info["bumps"] == 0
 
@@ -375,10 +376,10 @@ def test_with_escape_people_it_backs_away_from_a_person_it_tracked_out_of_view()
     person = (-0.5, 0.0)  # robot frame
     assert any(np.allclose(q, person) for q in agent._unexplained_near())
     assert not any(np.allclose(q, person) for q in agent._unexplained_near(within_m=0.4))
-    spot = agent._escape_spot(agent._unexplained_near())
+    spot = states.escape_spot(agent, agent._unexplained_near())
     agent.config = dataclasses.replace(agent.config, escape_people=False)
     assert not any(np.allclose(q, person) for q in agent._unexplained_near())
-    blind_spot = agent._escape_spot(agent._unexplained_near())
+    blind_spot = states.escape_spot(agent, agent._unexplained_near())
     assert np.hypot(*(spot - behind)) > np.hypot(*(blind_spot - behind)) + 0.2
 
 
@@ -396,8 +397,8 @@ def test_the_blind_memory_puts_the_last_scans_behind_the_robot() -> None:
     """`blind_memory_s`: the safety filter's blind sector also holds the last scans' end points."""
     _, bare = _localised_classic(HospitalAgentConfig())
     _, remembering = _localised_classic(HospitalAgentConfig(blind_memory_s=4.0))
-    walls = bare._remembered()
-    kept = remembering._remembered()
+    walls = bare.world.remembered(bare.pose, bare._memory, bare._odom)
+    kept = remembering.world.remembered(remembering.pose, remembering._memory, remembering._odom)
     assert len(kept) > len(walls)
     assert np.array_equal(kept[: len(walls)], walls)  # the map's walls and the evidence first, as before
 
@@ -415,17 +416,17 @@ def test_near_a_person_no_move_sweeps_the_rear_into_unseen_space() -> None:
     sweeping = (-0.12, 0.45, 1.0)
     p = agent.pose
     now = agent.steps * agent.spec.dt_s
-    agent.tracker.tracks = []
+    agent.world.tracker.tracks = []
     assert not agent._person_near()
     assert np.allclose(agent._finish(np.zeros((0, 2)), sweeping), sweeping)
-    agent.tracker.tracks = [Track(7, np.array([p.x + 1.0, p.y]), np.zeros(2), 0.3, now - 0.5, moving=True)]
+    agent.world.tracker.tracks = [Track(7, np.array([p.x + 1.0, p.y]), np.zeros(2), 0.3, now - 0.5, moving=True)]
     assert agent._person_near()
     vx, vy, w = agent._finish(np.zeros((0, 2)), sweeping)
     assert (vx, vy) == (0.0, 0.0) and w == pytest.approx(1.0)  # the turn in place stays in the circle
     # Only walking tracks count, and only within `people_cuts_m`.
-    agent.tracker.tracks = [Track(7, np.array([p.x + 1.0, p.y]), np.zeros(2), 0.3, now - 0.5, moving=False)]
+    agent.world.tracker.tracks = [Track(7, np.array([p.x + 1.0, p.y]), np.zeros(2), 0.3, now - 0.5, moving=False)]
     assert not agent._person_near()
-    agent.tracker.tracks = [Track(7, np.array([p.x + 1.6, p.y]), np.zeros(2), 0.3, now - 0.5, moving=True)]
+    agent.world.tracker.tracks = [Track(7, np.array([p.x + 1.6, p.y]), np.zeros(2), 0.3, now - 0.5, moving=True)]
     assert not agent._person_near()
 
 

@@ -13,7 +13,7 @@ from helpers import person_paused_behind
 import pico_gym  # noqa: F401
 from pico_gym.agents import make_agent
 from pico_gym.agents.base import RobotSpec
-from pico_gym.agents.classic.hospital import State
+from pico_gym.agents.classic.hospital import State, states
 from pico_gym.agents.classic.potential_field import MotionConfig
 from pico_gym.agents.hybrid import HybridAgent, HybridConfig, waypoint_along
 from pico_gym.agents.mlp import MlpActor
@@ -139,7 +139,9 @@ def test_the_shield_remembers_what_the_lrf_saw_before_it_turned_into_the_blind_s
     behind = 0.5 * np.array([np.cos(np.radians(160.0)), np.sin(np.radians(160.0))])
 
     def remembers(agent: HybridAgent) -> bool:
-        return bool((np.hypot(*(agent._remembered() - behind).T) < 0.01).any())
+        return bool(
+            (np.hypot(*(agent.world.remembered(agent.pose, agent._memory, agent._odom) - behind).T) < 0.01).any()
+        )
 
     seen = {}
     for memory in (0.0, 4.0):
@@ -406,10 +408,10 @@ def test_recovering_it_backs_away_from_a_person_it_tracked_out_of_view(tmp_path)
     behind = person_paused_behind(agent, 0.5)
     person = (-0.5, 0.0)  # robot frame
     assert any(np.allclose(q, person) for q in agent._unexplained_near())
-    spot = agent._escape_spot(agent._unexplained_near())
+    spot = states.escape_spot(agent, agent._unexplained_near())
     agent.hybrid = HybridConfig(escape_people=False)
     assert not any(np.allclose(q, person) for q in agent._unexplained_near())
-    blind_spot = agent._escape_spot(agent._unexplained_near())
+    blind_spot = states.escape_spot(agent, agent._unexplained_near())
     # It backs off away from the person (1.25 m from it here; blind to it, 0.97 m).
     assert np.hypot(*(spot - behind)) > np.hypot(*(blind_spot - behind)) + 0.2
     with pytest.raises(ValueError, match="escape_people"):
