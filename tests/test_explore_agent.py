@@ -10,17 +10,16 @@ import numpy as np
 
 import pico_gym  # noqa: F401
 from pico_gym.agents import make_agent
-from pico_gym.agents.classic.explore import (
-    ExploreAgent,
-    State,
-    _component_sizes,
-    _components,
-    _distance_transform,
-    _free_standing,
-    _opening,
-    _room_depths,
-    _wall_directions,
+from pico_gym.agents.classic.explore import ExploreAgent, State
+from pico_gym.agents.classic.explore.pose import wall_directions
+from pico_gym.agents.classic.explore.regions import (
+    component_sizes,
+    components,
+    distance_transform,
+    opening,
+    room_depths,
 )
+from pico_gym.agents.classic.explore.search import free_standing
 from pico_gym.sensors.lrf import lrf_ranges
 from pico_gym.tasks.explore import OccupancyBelief
 from pico_gym.types import Pose
@@ -56,7 +55,7 @@ def test_the_map_after_looking_around_matches_the_building() -> None:
     assert env.unwrapped.belief_iou(belief) > 0.2
     # Cells it calls free are free in truth, and cells it calls occupied lie on walls (within
     # 10 cm of the true geometry): the pose is good after a turn in place.
-    g = agent.grid
+    g = agent.occupancy.grid
     frame = env.unwrapped.map_from_odom
     c, s = math.cos(frame.theta), math.sin(frame.theta)
     building = env.unwrapped.episode.extra["building"]
@@ -156,7 +155,7 @@ def test_the_pose_estimate_stays_within_10_cm_while_exploring() -> None:
 def test_distance_transform_is_the_chamfer_distance() -> None:
     blocked = np.zeros((5, 5), dtype=bool)
     blocked[2, 2] = True
-    d = _distance_transform(blocked, 0.1, 1.0)
+    d = distance_transform(blocked, 0.1, 1.0)
     assert d[2, 2] == 0.0 and d[2, 3] == 0.1 and abs(d[3, 3] - 0.1 * math.sqrt(2)) < 1e-12 and d[2, 4] == 0.2
 
 
@@ -205,10 +204,10 @@ def test_a_small_frontier_counts_when_it_opens_into_the_unknown_not_at_a_gap_in_
     unknown[11:, :] = True
     occupied[10, 8] = False  # a one-cell hole in the mapped wall
     unknown[10, 8] = True
-    assert not _opening(np.array([[9, 8]]), unknown, occupied)
+    assert not opening(np.array([[9, 8]]), unknown, occupied)
     occupied[10, 5:12] = False  # a door 0.7 m wide, seen only through its near edge
     unknown[10, 5:12] = True
-    assert _opening(np.array([[9, 8]]), unknown, occupied)
+    assert opening(np.array([[9, 8]]), unknown, occupied)
 
 
 def test_component_sizes_are_those_of_the_components() -> None:
@@ -217,9 +216,9 @@ def test_component_sizes_are_those_of_the_components() -> None:
     for _ in range(30):
         mask = rng.random((30, 40)) < rng.uniform(0.2, 0.7)
         expected = np.zeros(mask.shape, dtype=np.int64)
-        for cells in _components(mask):
+        for cells in components(mask):
             expected[cells[:, 0], cells[:, 1]] = len(cells)
-        assert np.array_equal(_component_sizes(mask), expected)
+        assert np.array_equal(component_sizes(mask), expected)
 
 
 def test_room_depths_count_the_rooms_on_the_way_through_doors() -> None:
@@ -234,7 +233,7 @@ def test_room_depths_count_the_rooms_on_the_way_through_doors() -> None:
     walls[16:40, 60:100] = False  # room C
     walls[14:16, 75:81] = False  # door hallway -> C
     free = ~walls
-    depths = _room_depths(free, walls, (8, 4), 0.1, 0.92, 1.02)
+    depths = room_depths(free, walls, (8, 4), 0.1, 0.92, 1.02)
     assert depths[8, 60] == 0  # the hallway
     assert depths[30, 27] == 1 and depths[30, 80] == 1  # A and C
     assert depths[58, 27] == 2  # B
@@ -242,7 +241,7 @@ def test_room_depths_count_the_rooms_on_the_way_through_doors() -> None:
     # A stray hit in the middle of a room is not a wall (the agent keeps groups of four or more):
     # with it counted, B's middle is gone and B is no room of its own.
     assert (
-        _room_depths(
+        room_depths(
             free, walls | (np.arange(120) == 27)[None, :] & (np.arange(70) == 58)[:, None], (8, 4), 0.1, 0.92, 1.02
         )[58, 20]
         < 2
@@ -254,12 +253,12 @@ def test_free_standing_marks_a_box_before_a_wall_and_not_the_wall() -> None:
     wall = 3.0 / np.maximum(np.cos(angles), 0.3)  # a wall 3 m ahead (capped at the sides)
     box = np.abs(np.arctan2(np.sin(angles), np.cos(angles)) - 0.2) < 0.15  # about 0.45 m across at 1.5 m
     ranges = np.where(box, 1.5, wall)
-    standing = _free_standing(ranges, angles, 0.8)
+    standing = free_standing(ranges, angles, 0.8)
     assert standing[box].all()
     assert not standing[~box].any()
     # The same run against the wall (no background behind it) is not standing free; nor a long one.
-    assert not _free_standing(np.where(box, wall - 0.05, wall), angles, 0.8)[box].all()
-    assert not _free_standing(ranges, angles, 0.3)[box].any()
+    assert not free_standing(np.where(box, wall - 0.05, wall), angles, 0.8)[box].all()
+    assert not free_standing(ranges, angles, 0.3)[box].any()
 
 
 def test_the_blind_sector_holds_recent_hits_only() -> None:
@@ -269,15 +268,16 @@ def test_the_blind_sector_holds_recent_hits_only() -> None:
     agent = make_agent("classic", env)
     obs, info = env.reset(seed=0)
     agent.reset(obs, {"task": info["task"]})
-    g, p = agent.grid, agent.pose
+    g, p = agent.occupancy.grid, agent.pose
     x, y = p.x - 0.4 * math.cos(p.theta), p.y - 0.4 * math.sin(p.theta)  # 0.4 m behind
     row, col = int((y - g.y0) / g.resolution), int((x - g.x0) / g.resolution)
     agent.steps = 100_000
-    agent.hits[row, col] = 5
-    agent.last_hit[row, col] = agent.steps - agent._steps(agent.config.blind_memory_s) - 1
-    assert len(agent._mapped_near(0.7)) == 0
-    agent.last_hit[row, col] = agent.steps - 10
-    points = agent._mapped_near(0.7)
+    occupancy = agent.occupancy
+    occupancy.hits[row, col] = 5
+    occupancy.last_hit[row, col] = agent.steps - agent._steps(agent.config.blind_memory_s) - 1
+    assert len(occupancy.mapped_near(agent.pose, 0.7, agent._blind_since())) == 0
+    occupancy.last_hit[row, col] = agent.steps - 10
+    points = occupancy.mapped_near(agent.pose, 0.7, agent._blind_since())
     nearest = points[np.argmin(np.hypot(points[:, 0] + 0.4, points[:, 1]))]
     assert np.hypot(nearest[0] + 0.4, nearest[1]) < 0.05
 
@@ -289,7 +289,7 @@ def test_wall_directions_give_a_rectilinear_rooms_axes_modulo_90_degrees() -> No
     angles = np.linspace(-0.75 * math.pi, 0.75 * math.pi, 1000)
     for heading in (0.0, 0.3, -1.2):
         ranges = lrf_ranges(Pose(0.4, -0.3, heading - math.radians(20)), room, angles)
-        c4, s4, n = _wall_directions(ranges, angles, 8, 4, 4.0)
+        c4, s4, n = wall_directions(ranges, angles, 8, 4, 4.0)
         assert n > 100 and math.hypot(c4, s4) > 0.99 * n  # every piece agrees
         axis = math.atan2(s4, c4) / 4.0  # the walls' direction in the robot frame, modulo 90 deg
         expected = math.radians(20) - heading

@@ -1,0 +1,86 @@
+"""The classic explore agent's settings (SI units; times in seconds, turned into steps with the
+control period). How each default was measured is in docs/agents/classic-explore.md."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class ExploreAgentConfig:
+    """Settings of the classic explore agent.
+
+    Attributes:
+        cell_m: the occupancy grid's cell [m]; plan_cell_m: the planning grid's (2 x 2 cells).
+        size_m: the side of the square the occupancy grid covers, centred on the start [m]: a
+            2018 building fits with room to spare whichever way it lies.
+        map_range_m: beams mark free space up to this range [m]; farther, the pose's angular
+            error smears the map.
+        beam_stride: every this-many-th beam updates the map (a third keeps a step under 1 ms).
+        hit, miss, clamp: log-odds added at an end point, along a beam, and their bound.
+        occupied, free: log-odds above which a cell is occupied, below which it is free.
+        inflate_m: cells closer than this to an occupied cell are blocked for planning [m]: the
+            robot's half depth (it crosses doors sideways) plus a margin.
+        comfort_m: cells closer than this cost more, so paths keep off the walls [m].
+        narrow_m: where the path's clearance is below this, the robot drives sideways [m].
+        cruise_mps: the speed in open space [m/s].
+        frontier_min_cells: smaller frontiers are ignored unless they open into the unknown.
+        replan_s: how often the plan is remade, as the map grows.
+        give_up_s: a target approached by less than 0.2 m in this long is given up.
+        explore_budget_s: exploring stops after this long, leaving time to park and find.
+        park_standoff_m: the centre's distance to the parking wall before reversing [m].
+        reverse_mps: the reversing speed [m/s]; the rule allows 0.1 m/s at contact.
+        object_hits: evidence needed for an unexplained cluster to be the object.
+        object_max_m: only runs of beams this short, standing free, count as evidence [m]: the
+            object is small; a wall seen off its mapped place (pose drift) is a long run.
+        room_join_m, room_middle_m: the room/door graph's cut (`regions.room_depths`): free
+            cells farther than `room_join_m` from the walls, grouped, are a room's middle where
+            the walls are `room_middle_m` away somewhere in them (a 2018 room is 2.0 m or wider,
+            a hallway 1.8 m or narrower, a door 1.5 m or narrower) [m].
+        stop_range_m: the final creep stops when the LRF reads this towards the object [m].
+        scan_matching: correct the odometry by correlative scan-to-map matching. Off: its
+            corrections random-walk the heading faster than the course's odometry drifts.
+        safety_floor_m: the safety filter lets nothing closer to the footprint than this plus
+            twice the LRF's noise, and tries a command without its turn before scaling it down
+            (0: the plain filter).
+        blind_memory_s: the blind sector is covered by the cells the LRF hit within this long
+            (0: ever): odometry drifts over minutes, so an old hit stands where a jamb was, not
+            where it is now relative to the pose.
+        square_gain, square_min, square_window_deg: pull the heading towards the building's axes
+            (a 2018 hospital is rectilinear): where the scan's pieces of wall agree (their mean
+            resultant of 4a is `square_min` or more) within `square_window_deg` of the start's
+            axes, the heading moves `square_gain` of the way per step. Off (0): it straightens
+            the map but did not raise the successes.
+    """
+
+    cell_m: float = 0.05
+    plan_cell_m: float = 0.1
+    size_m: float = 48.0
+    map_range_m: float = 5.0
+    beam_stride: int = 3
+    hit: float = 0.9
+    miss: float = 0.4
+    clamp: float = 6.0
+    occupied: float = 1.0
+    free: float = -1.0
+    inflate_m: float = 0.13
+    comfort_m: float = 0.4
+    narrow_m: float = 0.33
+    cruise_mps: float = 0.4
+    frontier_min_cells: int = 5
+    replan_s: float = 1.0
+    give_up_s: float = 10.0
+    explore_budget_s: float = 420.0
+    park_standoff_m: float = 0.4
+    reverse_mps: float = 0.06
+    object_hits: float = 8.0
+    object_max_m: float = 0.8
+    room_join_m: float = 0.92
+    room_middle_m: float = 1.02
+    stop_range_m: float = 0.3
+    scan_matching: bool = False
+    square_gain: float = 0.0
+    square_min: float = 0.6
+    square_window_deg: float = 5.0
+    safety_floor_m: float = 0.015
+    blind_memory_s: float = 240.0
