@@ -42,75 +42,42 @@ SHIPPED_HYBRID_POLICY = Path(__file__).parent / "models" / "ppo_hospital_hybrid.
 
 @dataclass(frozen=True)
 class HybridConfig:
-    """The hybrid agent's own settings.
+    """The hybrid agent's own settings (how each default was measured: docs/agents/hybrid.md).
 
     Attributes:
-        lookahead_m: the waypoint the policy drives to lies this far along the planned route [m]
-            (or is the route's end, the dock point, when that is nearer).
-        shield: pass the policy's commands through the classic safety filter (as the classic
-            agent's own): kept in the LRF's view, turns cut near corners, scaled down before the
-            footprint comes within its margin.
-        blind_memory_s: the shield also keeps the footprint off what the LRF saw within 1.2 m
-            during the last `blind_memory_s` seconds and is now in its blind sector behind the
-            robot (kept with odometry). The classic part's own memory there (the map's walls and
-            its evidence grid) misses the face of a box that was seen only in passing: the policy,
-            driving sideways and turning fast, swung its rear into such faces. 0 turns it off.
-        fallback_after: after the policy's driving has ended in this many recoveries on one leg
-            (to the next cabinet), the classic part drives the rest of that leg. A policy that
-            heads for a gap the shield will not let it through goes back after every recovery; the
-            classic part marks the spot it got stuck at and plans around it. 0: never.
-        fallback_after_s: the classic part also drives the rest of a leg once the leg has
-            lasted this long [s]: a person walking to and fro in the hallway the robot needs
-            kept the policy's driving yielding and recovering there for minutes without a
-            recovery of its own (busy 2019 dev timeouts), where the classic part gets by. 0: never.
-            (120 s: on fresh busy 2019 and generated test sets, 294 / 300 and 100 / 100 episodes
-            against 293 and 99 without it, bumps the same.)
-        blind_turn: with the shield, a turn that would swing the footprint's rear out of its
-            turning circle into the LRF's blind sector while the robot translates is cut until it
-            does not (`pico_gym.agents.shield.blind_turn`): driving sideways at the edge of the
-            view and turning towards that side, the rear corner meets what comes from behind, which
-            the robot may never have seen (the policy and the classic part both backed sideways
-            into boxes and standing people so).
-        blind_translation: with `blind_turn`, a translation that would move the footprint's
-            rear out of the footprint into the blind sector, into space no recent scan saw free,
-            is cut until it does not (`pico_gym.agents.shield.blind_translation`): the direction
-            of travel is in view, the rear corner that leads is not (a person who walked up
-            behind a robot standing still was backed into so).
-        blind_near_m: if > 0, the two cuts apply only while the evidence holds something the map
-            does not show within this distance (a square) of the robot. The cuts cost time (dev
-            generated hospitals 200-229: mean 55.8 s without them, 67.0 s with them, 58.3 s with
-            1.5 m), but a person who walks up behind is in no evidence (dev busy 2019 800-999:
-            0.5 % bumps with the cuts always, 2.0 % with 1.5 m). 0 (default): always.
-        dock_still_s: docking that has stood still this long [s] recovers (backs off, looks
-            round, plans again) instead of waiting for the classic part's never-stand-still rule
-            (`HospitalAgentConfig.max_still_s`, 20 s). The policy can hand over beside a cabinet
-            at a heading the safety filter will not let the robot turn from; the dock servo's
-            command is then cut to nothing (dev hospital_2021 200-229: median 128.8 s, 119.9 s
-            with 3 s). 0: off.
-        recover_turn: while recovering, when every filter cuts the command to nothing, turn in
-            place if the safety filter alone lets a turn through (towards the nearest direction
-            behind the view that it lets the robot translate along, first). The classic part's
-            `safe_turn` allows no turn with a corner within `turn_keep_m` of anything, so a robot
-            whose rear corner the policy drove against a wall stood there until the idle rule
-            ended the run (dev busy 2019 9197).
-        walk_in_mps: if > 0 (opt-in), the policy may back into the strip behind the footprint
-            only where the shield's memory (`SeenFree`) saw it free, with what it saw taken back
-            at this speed (a walking person's: 0.5 m/s in the course's mover configs), or within
-            `back_budget_m` of backing since it last did. The bumps into people on busy 2019 dev
-            seeds were slow backward creeps (2-5 cm/s, each step within the shield's prediction
-            slack) into a person who had followed the robot and stood just behind it. 0 (off)
-            in `HybridConfig()`; the shipped policy was fine-tuned with 0.5 in its loop and its
-            metadata turns it on (a policy trained without it backs along corridors and lost
-            episodes to it: docs/hospital-hybrid.md). The classic part's driving is
-            not cut.
+        lookahead_m: the policy drives to the point this far along the planned route (or its
+            end, the dock point, when nearer) [m].
+        shield: pass the policy's commands through the classic safety filter (kept in the LRF's
+            view, turns cut near corners, scaled down before the footprint meets its margin).
+        blind_memory_s: the shield also keeps the footprint off what the LRF saw within 1.2 m in
+            the last this many seconds, now behind the robot [s]: the classic part's memory (map
+            and evidence) misses a box face seen only in passing (0: off).
+        fallback_after: after this many recoveries of the policy's driving on one leg, the
+            classic part drives the rest of the leg: it plans around the spot the policy got stuck
+            at (0: never).
+        fallback_after_s: the classic part also drives the rest of a leg that has lasted this
+            long [s]: a person walking to and fro kept the policy yielding for minutes (0: never).
+        blind_turn: with the shield, a turn that would swing the rear out of its turning circle
+            into the blind sector while translating is cut (`pico_gym.agents.shield.blind_turn`):
+            the rear corner meets what comes from behind.
+        blind_translation: with `blind_turn`, a translation that would move the rear into space
+            no recent scan saw free is cut (`pico_gym.agents.shield.blind_translation`).
+        blind_near_m: if > 0, the two cuts apply only with evidence of something the map does
+            not show this near [m]; 0 (default): always (a person who walks up behind is in no
+            evidence).
+        dock_still_s: docking that has stood still this long recovers instead of waiting for the
+            classic part's 20 s rule [s]: the policy can hand over at a heading the filter will
+            not turn from (0: off).
+        recover_turn: recovering with every command cut to nothing, turn in place where the
+            safety filter alone allows it, so a rear corner against a wall does not end the run.
+        walk_in_mps: if > 0, the policy backs into the strip behind the footprint only where the
+            shield's memory saw it free, what it saw taken back at this speed [m/s] (a walking
+            person's), or within `back_budget_m` of backing since; the shipped policy was tuned
+            with 0.5 and its metadata turns it on.
         back_budget_m: see `walk_in_mps` [m].
-        escape_people: what the classic part moves away from and watches (recovering, yielding,
-            driving sideways) is what the last scan shows off the map and also where the people
-            tracker last saw each person walking (for its `lost_s`, 1.5 s): a person who paused
-            just behind the robot is in no scan, and the robot backed away from what it saw into
-            that person (the busy 2019 bump seeds traced). False: the scan only. (The classic
-            agent's `HospitalAgentConfig.escape_people`, off by default there; the hybrid's own
-            switch decides for its classic part.)
+        escape_people: what the classic part backs away from and watches also holds where the
+            tracker last saw each person walking (one paused just behind the robot is in no
+            scan); the hybrid's own switch, not `HospitalAgentConfig.escape_people`.
     """
 
     lookahead_m: float = 1.0

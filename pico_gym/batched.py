@@ -1,6 +1,6 @@
 """The escape robots' common step for the vector env: every robot in one compiled call.
 
-`PicoVectorEnv` steps each robot through its own env (`PicoEnv._act`, `_judge`): a few
+`PicoVectorEnv` steps each robot through its own env (`PicoEnv.begin_step`, `finish_step`): a few
 microseconds of Python per robot and step, more than the compiled work. For PicoEscape-v0 robots
 (no action extras, no movers, a plain segment array) `EscapeBatch` keeps what a step changes in
 arrays instead, one row per robot, and steps every such robot in one compiled call
@@ -9,7 +9,10 @@ clearance, the scan with its noise, the escape task's verdict (progress, the fin
 reward terms, why the episode ends) and the info's values, written straight into the batch's
 arrays. What it cannot do there goes back to the robot's own env: a step the physics must take
 (a contact is possible), an episode's end, a reset. The env's own state is brought up to date
-from the rows first (`sync_out`), and read back after (`sync_in`).
+from the rows first (`sync_out`), and read back after (`sync_in`), through the classes' declared
+interface (`PicoEnv.motion_state` / `set_motion_state`, `Physics.pending_glide` / `set_glide`,
+`Odometry.redraw_countdown`, `EscapeTask.progress_state` / `set_progress_state`): no private
+attribute of theirs is read here.
 
 Bit for bit the same episodes: every random draw still comes from the robot's own `np_random`,
 in the order its own step draws (the wheel factors or slip, then the scan's noise), and each
@@ -24,11 +27,11 @@ from typing import Any
 
 import numpy as np
 
-from pico_gym.envs.base import CLEARANCE_CAP_M, COST_CLEARANCE_M, PicoEnv, _drive
+from pico_gym.envs.base import CLEARANCE_CAP_M, COST_CLEARANCE_M, MotionState, PicoEnv, _drive
 from pico_gym.jit import njit
 from pico_gym.pymath import wrap_angle
 from pico_gym.sensors.lrf import _cast, _noisy
-from pico_gym.tasks.escape import EscapeTask, _min_signed_distance
+from pico_gym.tasks.escape import REWARD_TERMS, EscapeTask, _min_signed_distance, weighted_terms
 from pico_gym.types import FloatArray, Pose
 from pico_gym.world.geometry import segments_intersect
 from pico_gym.world.grid import _lookup
@@ -50,17 +53,9 @@ _N_CONST = 5 + 8 + 3 + 1
 # The float info values the kernel writes: pose (3), odometry error (3), clearance, min clearance,
 # sim time, path length, the six reward terms, cost, geodesic_to_finish, reward.
 N_INFO = 3 + 3 + 4 + 6 + 3
-REWARD_TERMS = ("progress", "success", "bump", "time", "proximity", "approach")
 # Why an episode ends, by code (0: it goes on).
 REASONS = (None, "escaped", "bump", "idle", "timeout")
 _TRAJECTORY_ROOM = 256  # poses a robot keeps before they are handed to its env's trajectory
-
-
-@njit
-def _closeness(clearance_m: float, within_m: float) -> float:
-    """`pico_gym.tasks.escape._closeness`: max(0.0, 1.0 - clearance / within), as Python's max."""
-    c = 1.0 - clearance_m / within_m
-    return c if c > 0.0 else 0.0
 
 
 @njit
@@ -96,18 +91,18 @@ def _step_escape(
     rewards: FloatArray,
     terminated: np.ndarray,
     truncated: np.ndarray,
-) -> tuple[int, bool, int]:
+) -> tuple[int, bool, int, int]:
     """One step of the robots `rows` (see the module's docstring). A robot the physics must step
     gets ends[i, 0] = -1 and its `_drive` result in motions[i] (its row otherwise untouched); the
     others get their new state, scan, odometry observation, info values (info[value, robot]) and
     ends[i] = (reason code, truncated, success), with their reward, terminated and truncated.
     Each robot's odometry countdown moves on unless `grounded` (its `Odometry.ground` ran this
     step). Returns (how many robots need their env: a contact is possible, or the episode ended;
-    whether a robot's trajectory buffer is full)."""
+    whether a robot's trajectory buffer is full; how many robots' wheel factors are due next step;
+    how many robots this call stepped to the end)."""
     vmax, wmax, dt, circumradius, margin, substep_s = shared[0], shared[1], shared[2], shared[3], shared[4], shared[5]
     idle_speed, idle_turn, idle_time, time_limit = shared[6], shared[7], shared[8], shared[9]
-    w_progress, w_success, w_bump, w_time = shared[10], shared[11], shared[12], shared[13]
-    w_proximity, proximity_m, w_approach, approach_m = shared[14], shared[15], shared[16], shared[17]
+    weights = shared[10:18]  # `RewardWeights.vector()`, `weighted_terms`' table
     substeps, terminate_on_bump = ishared[0], ishared[1] != 0
     beam_angles, beam_cos, beam_sin = beams
     noise, rmin, rmax, no_hit = reading
@@ -115,6 +110,7 @@ def _step_escape(
     events = 0
     full = False
     due_next = 0
+    stepped = 0
     room_left = trajectory.shape[1]
     for j in range(rows.shape[0]):
         i = rows[j]
@@ -141,7 +137,8 @@ def _step_escape(
             ends[i, 0] = -1
             events += 1
             continue
-        # The env's `_moved`, the glide taken (`Physics.glided`).
+        # The env's `apply_motion`, the glide taken (`Physics.glided`).
+        stepped += 1
         s[_BX], s[_BY], s[_BA], s[_BVX], s[_BVY], s[_BW] = x, y, angle, velocity_x, velocity_y, tw
         s[_PTIME] += glide_s
         istate[i, _GLIDES] += 1
@@ -181,14 +178,7 @@ def _step_escape(
         if (d0 <= 0.0) != (d1 <= 0.0) and segments_intersect(px, py, x, y, ax, ay, bx, by):
             s[_OUT] = 1.0 if d1 > 0.0 else 0.0
         escaped = s[_OUT] != 0.0 and _min_signed_distance(x, y, theta, outline, lx, ly, nx, ny) > 0.0
-        terms = (
-            w_progress * progress,
-            w_success * (1.0 if escaped else 0.0),
-            -w_bump * 0,
-            -w_time * dt,
-            -w_proximity * dt * _closeness(clearance, proximity_m),
-            w_approach * (_closeness(previous_clearance, approach_m) - _closeness(clearance, approach_m)),
-        )
+        terms = weighted_terms(weights, progress, escaped, 0, dt, clearance, previous_clearance)
         reason = 0
         if escaped:
             reason = 1
@@ -220,7 +210,7 @@ def _step_escape(
         info[18, i] = total
         rewards[i] = total
         odom32[i, 0], odom32[i, 1], odom32[i, 2] = ox, oy, otheta
-    return events, full, due_next
+    return events, full, due_next, stepped
 
 
 class EscapeBatch:
@@ -237,12 +227,11 @@ class EscapeBatch:
         cfg = first.config
         task_cfg = first.task.config
         rule = task_cfg.idle_rule
-        w = task_cfg.rewards
         robot = cfg.robot
-        self.shared = np.array(
-            [robot.max_speed_mps, robot.max_turn_rate_radps, cfg.dt_s, 0.0, 0.0, cfg.physics.substep_s,
-             rule.speed_mps, rule.turn_rate_radps, task_cfg.idle_time_s, task_cfg.time_limit_s,
-             w.progress, w.success, w.bump, w.time, w.proximity, w.proximity_m, w.approach, w.approach_m],
+        self.shared = np.concatenate(
+            [[robot.max_speed_mps, robot.max_turn_rate_radps, cfg.dt_s, 0.0, 0.0, cfg.physics.substep_s,
+              rule.speed_mps, rule.turn_rate_radps, task_cfg.idle_time_s, task_cfg.time_limit_s],
+             first.task.weights],
         )  # fmt: skip
         self.ishared = np.array([1, task_cfg.collision == "terminate"], dtype=np.int64)
         self.state = np.zeros((n, _N_STATE))
@@ -267,9 +256,9 @@ class EscapeBatch:
         self._sources: list[tuple[Any, ...]] = [()] * n  # what each slot was filled from
         self._outline = np.ascontiguousarray(robot.outline, dtype=np.float64)
         lrf = first.lrf
-        self._beams = (lrf.beam_angles, lrf._cos, lrf._sin)
-        self._reading = lrf._reading
-        self._draws_noise = lrf._draws_noise
+        self._beams = lrf.beams
+        self._reading = lrf.reading
+        self._draws_noise = lrf.draws_noise
         self._exact_ranges = np.empty(lrf.config.n_beams)
         # The scans' noise: each robot's uniforms for this step (0.5 without noise: no change).
         self.units = np.full((n, lrf.config.n_beams), 0.5)
@@ -283,19 +272,20 @@ class EscapeBatch:
         self.ends = np.zeros((n, 3), dtype=np.int64)  # the last step's (reason code, truncated, success)
         self.motions = np.zeros((n, 20))  # the last step's `_drive` results of robots handed back
         self._no_movers = (np.zeros((0, 10)), np.zeros((0, 6)), np.zeros((0, 2)), np.zeros((0, 4)))
+        self.stepped = 0  # robot steps taken in the compiled kernel (the rest went to their envs)
 
     @staticmethod
     def takes(env: PicoEnv) -> bool:
         """Whether the batch can step this robot's current episode."""
+        if not isinstance(env.task, EscapeTask) or env.episode is None or env.finished:
+            return False
+        _, seen, movers, _ = env.scan_inputs()
         return (
-            isinstance(env.task, EscapeTask)
-            and env._n_extras == 0
-            and env._movers is None
-            and isinstance(env._seen, np.ndarray)
-            and env._on_scan is None
+            env.n_action_extras == 0
+            and movers is None
+            and isinstance(seen, np.ndarray)
+            and not env.scores_scans
             and env.render_mode is None
-            and env.episode is not None
-            and not env._finished
         )
 
     # --- the rows and the envs ---------------------------------------------------------------
@@ -308,37 +298,38 @@ class EscapeBatch:
             return
         physics, odometry, task = env.physics, env.odometry, env.task
         x0, y0, a0, may_glide = physics.glide_inputs()
-        pending = physics._pending
+        pending = physics.pending_glide()
+        motion = env.motion_state()
         s = self.state[i]
-        s[_X], s[_Y], s[_TH] = env._pose
+        s[_X], s[_Y], s[_TH] = motion.pose
         s[_BX], s[_BY], s[_BA] = x0, y0, a0
         if pending is not None:
             s[_BVX], s[_BVY] = pending[3]
             s[_BW] = pending[4]
         s[_OX], s[_OY], s[_OTH] = odometry.pose
-        s[_ROOM], s[_CLEAR], s[_MIN_CLEAR] = env._room, env._clearance, env._min_clearance
-        s[_PATH], s[_IDLE] = env._path_length, env._idle.idle_s
-        s[_VALUE], s[_OUT], s[_PTIME] = task._progress.value, float(task._out), physics.time_s
-        s[_UNTIL] = odometry._until_redraw
-        self.exact[i] = odometry._exact
+        s[_ROOM], s[_CLEAR], s[_MIN_CLEAR] = motion.room, motion.clearance, motion.min_clearance
+        s[_PATH], s[_IDLE] = motion.path_length, motion.idle_s
+        value, out = task.progress_state()
+        s[_VALUE], s[_OUT], s[_PTIME] = value, float(out), physics.time_s
+        s[_UNTIL] = odometry.redraw_countdown
+        self.exact[i] = odometry.exact
         self._draw[i] = env.np_random.random  # (a reset with a seed makes a new generator)
-        if not odometry._exact:
-            self.ground[i] = self._ground_of[i] = odometry._true_from_commanded
-        self.istate[i] = (env.steps, 0, may_glide, 0)
+        if not odometry.exact:
+            self.ground[i] = self._ground_of[i] = odometry.ground_matrix
+        self.istate[i] = (motion.steps, 0, may_glide, 0)
         self._maybe_due = True
-        circumradius, margin, substeps, _ = env._glide
+        circumradius, margin, substeps, _ = env.glide_constants
         self.shared[3], self.shared[4], self.ishared[0] = circumradius, margin, substeps
-        a, (cos_a, sin_a) = env._odom_from_map, env._odom_from_map_cs
-        field = task._progress.field
+        field = task.progress_field
         g = field.grid
         c = self.const[i]
-        c[0:5] = (a.x, a.y, a.theta, cos_a, sin_a)
-        c[5:13] = task._line
+        c[0:5] = env.odometry_frame()
+        c[5:13] = task.finish_line
         c[13:16] = (g.x0, g.y0, g.resolution)
         c[16] = env.episode.shortest_path_length_m
-        self.bumps[i] = physics.bumps - env._n_excused
-        self.bumps_by_kind[i] = [n - e for n, e in zip(physics.bumps_by_kind, env._excused, strict=True)]
-        self._join(i, field.distance, env._solid, env._seen, env._one_sided)
+        self.bumps[i], self.bumps_by_kind[i] = env.counted_bumps()
+        _, seen, _, one_sided = env.scan_inputs()
+        self._join(i, field.distance, env.solid_segments, seen, one_sided)
         self.live[i] = True
 
     def sync_out(self, i: int) -> None:
@@ -348,28 +339,22 @@ class EscapeBatch:
             return
         env = self.envs[i]
         s, k = self.state[i], self.istate[i]
-        physics = env.physics
         if k[_GLIDES]:
-            physics._pending = (s[_BX], s[_BY], s[_BA], (s[_BVX], s[_BVY]), s[_BW])
-            physics.time_s = s[_PTIME]
+            env.physics.set_glide(s[_BX], s[_BY], s[_BA], (s[_BVX], s[_BVY]), s[_BW], s[_PTIME])
         if k[_STEPS] != env.steps:
             env.last_scan = self.last_scans[i]
         self._hand_over_trajectory(i)
-        env._pose = Pose(s[_X], s[_Y], s[_TH])
+        pose = Pose(s[_X], s[_Y], s[_TH])
+        env.set_motion_state(MotionState(pose, s[_ROOM], s[_CLEAR], s[_MIN_CLEAR], s[_PATH], s[_IDLE], int(k[_STEPS])))
         env.odometry.pose = Pose(s[_OX], s[_OY], s[_OTH])
-        env.steps = int(k[_STEPS])
-        env.sim_time_s = env.steps * env.config.dt_s
-        env._room, env._clearance, env._min_clearance = s[_ROOM], s[_CLEAR], s[_MIN_CLEAR]
-        env._path_length, env._idle.idle_s = s[_PATH], s[_IDLE]
-        env.odometry._until_redraw = s[_UNTIL]
-        env.task._progress.value = s[_VALUE]
-        env.task._out = bool(s[_OUT])
+        env.odometry.redraw_countdown = s[_UNTIL]
+        env.task.set_progress_state(s[_VALUE], bool(s[_OUT]))
         self.live[i] = False
 
     def _hand_over_trajectory(self, i: int) -> None:
         t = int(self.istate[i, _TRAJ])
         if t:
-            self.envs[i]._add_trajectory(self.trajectory[i, :t].copy())
+            self.envs[i].add_trajectory(self.trajectory[i, :t].copy())
             self.istate[i, _TRAJ] = 0
 
     def _join(self, i: int, field: FloatArray, solid: FloatArray, seen: FloatArray, flags: np.ndarray | None) -> None:
@@ -405,9 +390,9 @@ class EscapeBatch:
             due = rows[until[rows] <= 0.0]
         for i in due.tolist():  # (the kernel counts the others down)
             odometry = self.envs[i].odometry
-            odometry._until_redraw = until[i]
+            odometry.redraw_countdown = until[i]
             m = odometry.ground(self._dt, self.envs[i].np_random)
-            until[i] = odometry._until_redraw
+            until[i] = odometry.redraw_countdown
             self.grounded[i] = True
             if m is not None and m is not self._ground_of[i]:  # (new factors, or slip)
                 self.ground[i] = m
@@ -441,7 +426,7 @@ class EscapeBatch:
         what happened to each. Returns how many robots need their own env (see `_step_escape`)."""
         ends = self.ends
         ends[:] = 0
-        events, full, due_next = _step_escape(
+        events, full, due_next, stepped = _step_escape(
             rows, actions, self.ground, self.exact, self.state, self.istate, self.const, self._fields, self._solid,
             self._seen, self._flags, self._sizes, self._outline, self._no_movers, self.bumps, self.shared, self.ishared,
             self._beams, self.units, self._reading, self._exact_ranges, scans, odom32, info, ends, self.motions,
@@ -449,6 +434,7 @@ class EscapeBatch:
         )  # fmt: skip
         self.last_scans = scans
         self._maybe_due = due_next > 0
+        self.stepped += stepped
         if full:
             for i in rows[self.istate[rows, _TRAJ] >= _TRAJECTORY_ROOM].tolist():
                 self._hand_over_trajectory(i)

@@ -488,6 +488,18 @@ class Physics:
         self._pending = (x, y, angle, (vx, vy), w)
         self.time_s += duration_s
 
+    def pending_glide(self) -> tuple[float, float, float, tuple[float, float], float] | None:
+        """The body after glides not yet written into pymunk: (x, y, unwrapped angle, velocity,
+        turn rate), or None."""
+        return self._pending
+
+    def set_glide(
+        self, x: float, y: float, angle: float, velocity: tuple[float, float], w: float, time_s: float
+    ) -> None:
+        """Stand the body where glides taken elsewhere (a compiled batch) left it, at `time_s`."""
+        self._pending = (x, y, angle, velocity, w)
+        self.time_s = time_s
+
     def glide_inputs(self) -> tuple[float, float, float, bool]:
         """What the step's kernel needs to glide: the body's position and unwrapped angle, and
         whether a glide may be taken at all now (the shortcut is on and nothing touches)."""

@@ -4,9 +4,9 @@
 compiled call for all of them (`pico_gym.batched.EscapeBatch`: motion, scan, the task's verdict
 and the info values, with the robots' state kept in arrays; a step the physics must take, an
 episode's end and a reset go through the robot's own env). Other robots step env by env: each
-robot's action, physics and odometry (`PicoEnv._act`), then the scans of every robot whose scene
+robot's action, physics and odometry (`PicoEnv.begin_step`), then the scans of every robot whose scene
 is a plain segment array in one compiled call (cast and noise; robots on large maps or with movers
-scan on their own), then each task's verdict (`PicoEnv._judge`). Infos are batched per key as
+scan on their own), then each task's verdict (`PicoEnv.finish_step`). Infos are batched per key as
 gymnasium's `SyncVectorEnv` batches them (a value array and a `_key` mask per key, nested dicts
 alike), built once per step rather than env by env. `envs` hands out the robots' own envs, brought
 up to date first.
@@ -18,9 +18,10 @@ the one its own env would compute, so observations, rewards, terminations and in
 gymnasium's modes: NEXT_STEP (the default, as `SyncVectorEnv`) or SAME_STEP (the final observation
 and info in `info["final_obs"]`, `info["final_info"]`; what Stable-Baselines3's `VecEnv` expects).
 
-A friend of `PicoEnv` inside the package: it calls the step's parts (`_act`, `_sense`, `_judge`)
-and reads what the single step hands its LRF (`_pose`, `_seen`, `_movers`, `_one_sided`) and the
-LRF's kept constants, so that a scan in the batch is the scan the env itself would take.
+It steps each robot through the step's declared parts (`PicoEnv.begin_step`, `take_scan`,
+`finish_step`) and reads what the single step hands its LRF (`PicoEnv.scan_inputs`) and the LRF's
+kept constants (`Lrf.beams`, `reading`), so that a scan in the batch is the scan the env itself
+would take.
 """
 
 from __future__ import annotations
@@ -122,7 +123,7 @@ class PicoVectorEnv(VectorEnv):
         lrf = first.lrf
         self._lrf = lrf
         self._units = np.empty((num_envs, lrf.config.n_beams))
-        if not lrf._draws_noise:
+        if not lrf.draws_noise:
             self._units.fill(0.5)
         self._exact = np.empty(lrf.config.n_beams)
         self._scenes: list[Any] = [None] * num_envs  # the static segments the batch arrays were built from
@@ -131,9 +132,16 @@ class PicoVectorEnv(VectorEnv):
         self._flags = np.zeros(0, dtype=np.bool_)
         self._batchable = [False] * num_envs  # scanned in the batch call (a plain segment array, no movers)
         # Escape robots step in one compiled call (`pico_gym.batched`).
-        self._batch = EscapeBatch(self._envs) if isinstance(first.task, EscapeTask) and first._n_extras == 0 else None
+        self._batch = (
+            EscapeBatch(self._envs) if isinstance(first.task, EscapeTask) and first.n_action_extras == 0 else None
+        )
         self._all = np.arange(num_envs)
         self._batch_shape = (num_envs, 3)
+
+    @property
+    def batch_steps(self) -> int:
+        """Robot steps taken in the compiled escape batch so far (0 for robots it cannot take)."""
+        return self._batch.stepped if self._batch is not None else 0
 
     @property
     def envs(self) -> list[Any]:
@@ -151,20 +159,19 @@ class PicoVectorEnv(VectorEnv):
     def _refresh_scenes(self) -> None:
         """Rebuild the joined segment arrays when a robot's static scene changed (a reset, or a
         task's new scene)."""
-        seen = [env._seen for env in self._envs]
+        seen = [env.scan_inputs()[1] for env in self._envs]
         if all(a is b for a, b in zip(seen, self._scenes, strict=True)):
             return
         self._scenes = seen
         segments, flags = [], []
         n_seg = n_flag = 0
         for i, env in enumerate(self._envs):
-            static = env._seen
-            ok = isinstance(static, np.ndarray) and env._movers is None
+            _, static, movers, one_sided = env.scan_inputs()
+            ok = isinstance(static, np.ndarray) and movers is None
             self._batchable[i] = ok
             if not ok:
                 self._bounds[i] = (n_seg, n_seg, n_flag, n_flag)
                 continue
-            one_sided = env._one_sided
             k = 0 if one_sided is None else len(one_sided)
             self._bounds[i] = (n_seg, n_seg + len(static), n_flag, n_flag + k)
             segments.append(static)
@@ -182,20 +189,20 @@ class PicoVectorEnv(VectorEnv):
         batch = [i for i in stepped if batchable[i]]
         lrf = self._lrf
         if batch:
-            if lrf._draws_noise:
+            if lrf.draws_noise:
                 units = self._units
                 for i in batch:
                     envs[i].np_random.random(out=units[i])  # the draws its own scan would take
             _scan_batch(
-                np.array(batch, dtype=np.int64), np.array([envs[i]._pose for i in batch]), self._segments,
-                self._bounds, self._flags, lrf.beam_angles, lrf._cos, lrf._sin, self._units, lrf._reading,
+                np.array(batch, dtype=np.int64), np.array([envs[i].scan_inputs()[0] for i in batch]), self._segments,
+                self._bounds, self._flags, *lrf.beams, self._units, lrf.reading,
                 self._exact, out,
             )  # fmt: skip
         for i in stepped:
             env = envs[i]
             if not batchable[i]:
-                out[i] = env.lrf.scan(env._pose, env._seen, env.np_random, env._movers, env._one_sided)
-            env._sense(out[i])
+                out[i] = env.lrf.scan(*_scan_args(env), env.np_random, *_scan_extras(env))
+            env.take_scan(out[i])
 
     # --- the VectorEnv interface -----------------------------------------------------------
     def reset(
@@ -325,21 +332,20 @@ class PicoVectorEnv(VectorEnv):
             code = int(ends[i, 0])
             if code > 0 or ends[i, 1]:  # the episode ended in the batch
                 batch.sync_out(i)
-                env._finished = True
                 terms = dict(zip(REWARD_TERMS, values[10:16, i].tolist(), strict=True))
                 reason = REASONS[code] if code > 0 else "timeout"
-                patches[i] = env._info(terms, reason, bool(ends[i, 2]), float(values[16, i]))
+                patches[i] = env.end_stepped_elsewhere(terms, reason, bool(ends[i, 2]), float(values[16, i]))
             else:
                 if code < 0:  # a contact is possible: the physics steps it, in the robot's own env
                     batch.sync_out(i)
-                    moved = env._moved(tuple(motions[i].tolist()), _NO_EXTRAS)
-                    scans[i] = env.lrf.read(env._pose, env._seen, batch.unit_row(i), env._movers, env._one_sided)
+                    moved = env.apply_motion(tuple(motions[i].tolist()), _NO_EXTRAS)
+                    scans[i] = env.lrf.read(*_scan_args(env), batch.unit_row(i), *_scan_extras(env))
                     ends[i] = 0
                 else:  # not the batch's: as `step_each` steps it
-                    moved = env._act(actions[i])
-                    scans[i] = env.lrf.scan(env._pose, env._seen, env.np_random, env._movers, env._one_sided)
-                env._sense(scans[i])
-                obs, rewards[i], terminated[i], truncated[i], patches[i] = env._judge(moved)
+                    moved = env.begin_step(actions[i])
+                    scans[i] = env.lrf.scan(*_scan_args(env), env.np_random, *_scan_extras(env))
+                env.take_scan(scans[i])
+                obs, rewards[i], terminated[i], truncated[i], patches[i] = env.finish_step(moved)
                 odom[i] = obs["odom"]
             if (terminated[i] or truncated[i]) and not next_step:
                 final[i] = ({"lrf": scans[i].copy(), "odom": odom[i].copy()}, patches[i])
@@ -381,12 +387,12 @@ class PicoVectorEnv(VectorEnv):
                 self._autoreset[i] = False
                 continue
             stepped.append(i)
-            moves.append(env._act(actions[i]))
+            moves.append(env.begin_step(actions[i]))
         self._scan(stepped, scans)
         final: Finals = {}
         for i, moved in zip(stepped, moves, strict=True):
             env = self._envs[i]
-            obs, rewards[i], terminated[i], truncated[i], infos[i] = env._judge(moved)
+            obs, rewards[i], terminated[i], truncated[i], infos[i] = env.finish_step(moved)
             if terminated[i] or truncated[i]:
                 if next_step:
                     self._autoreset[i] = True
@@ -475,6 +481,18 @@ class PicoVectorEnv(VectorEnv):
     def close_extras(self, **kwargs: Any) -> None:
         for env in self._envs:
             env.close()
+
+
+def _scan_args(env: Any) -> tuple[Any, Any]:
+    """The pose and static geometry a robot's scan reads (`PicoEnv.scan_inputs`)."""
+    pose, seen, _, _ = env.scan_inputs()
+    return pose, seen
+
+
+def _scan_extras(env: Any) -> tuple[Any, Any]:
+    """The movers and one-sided flags a robot's scan reads (`PicoEnv.scan_inputs`)."""
+    _, _, movers, one_sided = env.scan_inputs()
+    return movers, one_sided
 
 
 def _row(batched: dict[str, Any], i: int) -> dict[str, Any]:

@@ -492,6 +492,7 @@ def test_the_vector_training_env_hands_sb3_what_the_dummy_path_does(tiny_config)
             assert a["episode"]["r"] == pytest.approx(b["episode"]["r"], abs=1e-4)
             reasons.add(a["termination_reason"])
     assert {"bump", "timeout"} <= reasons
+    assert ours.venv.venv.batch_steps >= 0.6 * 2 * 300  # the compiled escape batch took the steps
     ours.close()
     theirs.close()
 

@@ -106,7 +106,7 @@ def _clearance_and_room(
 
 
 class _Moved(NamedTuple):
-    """What `PicoEnv._act` hands `PicoEnv._judge`: the step's motion before the scan."""
+    """What `PicoEnv.begin_step` hands `PicoEnv.finish_step`: the step's motion before the scan."""
 
     previous: Pose  # the true pose before the step
     twist: tuple[float, float, float]  # the true twist the ground gave
@@ -114,6 +114,20 @@ class _Moved(NamedTuple):
     idle_s: float
     previous_clearance: float
     extras: np.ndarray  # the action's components after the twist
+
+
+class MotionState(NamedTuple):
+    """What a step changes of a robot's motion (`PicoEnv.motion_state`): its true pose, the room
+    the next step has before anything can touch it, the footprint's clearance now and its least
+    over the episode, the path driven, how long it has stood still, and the steps taken."""
+
+    pose: Pose
+    room: float
+    clearance: float
+    min_clearance: float
+    path_length: float
+    idle_s: float
+    steps: int
 
 
 @dataclass(frozen=True)
@@ -316,14 +330,16 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
 
     def step(self, action: np.ndarray) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
         """Advance one control period with the body-frame twist `action` = (vx, vy, w[, extras])."""
-        moved = self._act(action)
-        self._sense(self.lrf.scan(self._pose, self._seen, self.np_random, self._movers, self._one_sided))
-        return self._judge(moved)
+        moved = self.begin_step(action)
+        self.take_scan(self.lrf.scan(self._pose, self._seen, self.np_random, self._movers, self._one_sided))
+        return self.finish_step(moved)
 
     # The step in three parts, so that a vector env can scan many robots in one call between them:
-    # _act (action, physics, odometry, clearance), the scan (`_sense` takes it), _judge (the task's
-    # verdict, observation, info).
-    def _act(self, action: np.ndarray) -> _Moved:
+    # `begin_step` (action, physics, odometry, clearance), the scan (`take_scan` takes it),
+    # `finish_step` (the task's verdict, observation, info). Between them, `scan_inputs` is what the
+    # scan reads; a compiled batch of robots (`pico_gym.batched`) takes a robot's state out with
+    # `motion_state` and the constants below, and puts it back with `set_motion_state`.
+    def begin_step(self, action: np.ndarray) -> _Moved:
         if self.episode is None:
             raise RuntimeError("call reset() before step()")
         if self._finished:
@@ -341,10 +357,10 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
             x0, y0, a0, may_glide, self._room, *self._glide, *odometry.pose, *self._pose,
             self._outline, self._solid, CLEARANCE_CAP_M, self._mover_arrays, self._mover_speed,
         )  # fmt: skip
-        return self._moved(motion, extras)
+        return self.apply_motion(motion, extras)
 
-    def _moved(self, motion: tuple, extras: np.ndarray) -> _Moved:
-        """The rest of `_act` from `_drive`'s result: the glide taken, or the physics' step."""
+    def apply_motion(self, motion: tuple, extras: np.ndarray) -> _Moved:
+        """The rest of `begin_step` from `_drive`'s result: the glide taken, or the physics' step."""
         (glided, vx, vy, w, true_vx, true_vy, true_w, odom_x, odom_y, odom_theta,
          x, y, angle, velocity_x, velocity_y, theta, moved, turned, clearance, room) = motion  # fmt: skip
         dt = self.config.dt_s
@@ -375,13 +391,13 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         twist_true = (true_vx, true_vy, true_w)
         return _Moved(previous, twist_true, physics.bumps - bumps_before, idle_s, previous_clearance, extras)
 
-    def _sense(self, scan: np.ndarray) -> None:
-        """Take the step's scan (from the pose `_act` left)."""
+    def take_scan(self, scan: np.ndarray) -> None:
+        """Take the step's scan (from the pose `begin_step` left)."""
         self.last_scan = scan
         if self._on_scan is not None:
             self._on_scan(self._pose, scan)
 
-    def _judge(self, moved: _Moved) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
+    def finish_step(self, moved: _Moved) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
         physics = self.physics
         pose = self._pose
         dt = self.config.dt_s
@@ -524,9 +540,76 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
             self._trajectory_blocks.clear()
         return self._trajectory
 
-    def _add_trajectory(self, block: FloatArray) -> None:
+    def add_trajectory(self, block: FloatArray) -> None:
         """Poses (an (n, 3) array) stepped outside `step`, made Poses only when read."""
         self._trajectory_blocks.append(block)
+
+    # --- the interface of a step taken elsewhere (a vector env's scan, a compiled batch) ----------
+    def scan_inputs(self) -> tuple[Pose, Any, Segments | None, np.ndarray | None]:
+        """What the step's scan reads: the true pose, the static geometry the LRF sees (a segment
+        array or a `SegmentGrid`), the movers' segments (None: no movers) and which static
+        segments are one-sided (None: none)."""
+        return self._pose, self._seen, self._movers, self._one_sided
+
+    def motion_state(self) -> MotionState:
+        """What a step changes of the robot's motion, as a value (for a batch that steps it)."""
+        return MotionState(
+            self._pose, self._room, self._clearance, self._min_clearance, self._path_length, self._idle.idle_s,
+            self.steps,
+        )  # fmt: skip
+
+    def set_motion_state(self, state: MotionState) -> None:
+        """Put back a motion state a batch stepped on (the simulated time follows the steps)."""
+        self._pose = state.pose
+        self._room, self._clearance, self._min_clearance = state.room, state.clearance, state.min_clearance
+        self._path_length, self._idle.idle_s = state.path_length, state.idle_s
+        self.steps = state.steps
+        self.sim_time_s = self.steps * self.config.dt_s
+
+    def odometry_frame(self) -> tuple[float, float, float, float, float]:
+        """The map-to-odometry transform of the episode: (x, y, theta, cos theta, sin theta)."""
+        a, (c, s) = self._odom_from_map, self._odom_from_map_cs
+        return a.x, a.y, a.theta, c, s
+
+    def counted_bumps(self) -> tuple[int, list[int]]:
+        """Bumps so far and by kind (`scene.KINDS`), those the task's rules excused left out."""
+        physics = self.physics
+        return physics.bumps - self._n_excused, [
+            n - e for n, e in zip(physics.bumps_by_kind, self._excused, strict=True)
+        ]
+
+    def end_stepped_elsewhere(
+        self, reward_terms: dict[str, float], reason: str, success: bool, cost: float
+    ) -> dict[str, Any]:
+        """End an episode whose last step a batch took (its state put back first): the episode
+        is over, and its last info is built from the batch's verdict."""
+        self._finished = True
+        return self._info(reward_terms, reason, success, cost)
+
+    @property
+    def glide_constants(self) -> tuple[float, float, int, float]:
+        """The physics' glide constants of a step (`Physics.glide_constants` of `dt_s`)."""
+        return self._glide
+
+    @property
+    def solid_segments(self) -> Segments:
+        """The static geometry the robot's footprint keeps off (and its clearance is to)."""
+        return self._solid
+
+    @property
+    def n_action_extras(self) -> int:
+        """Action components after the twist (the task's)."""
+        return self._n_extras
+
+    @property
+    def scores_scans(self) -> bool:
+        """Whether the task takes in every scan (`Task.on_scan`, e.g. exploration coverage)."""
+        return self._on_scan is not None
+
+    @property
+    def finished(self) -> bool:
+        """Whether the episode has ended (a step needs a reset first)."""
+        return self._finished
 
     @property
     def pose(self) -> Pose:

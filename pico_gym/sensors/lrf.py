@@ -684,6 +684,22 @@ class Lrf:
         no_hit = 0.0 if config.no_hit == "zero" else config.range_max_m
         self._reading = (config.noise_m, config.range_min_m, config.range_max_m, no_hit)
 
+    @property
+    def beams(self) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """The beams as the compiled cast takes them: (angles, cos, sin), robot frame."""
+        return self.beam_angles, self._cos, self._sin
+
+    @property
+    def reading(self) -> tuple[float, float, float, float]:
+        """How a cast range becomes a reading, as the compiled noise takes it: (noise, range
+        min, range max, what a beam that hits nothing reads)."""
+        return self._reading
+
+    @property
+    def draws_noise(self) -> bool:
+        """Whether a scan draws its noise (one uniform per beam) from the generator it is given."""
+        return self._draws_noise
+
     def space(self) -> gym.spaces.Box:
         """The observation space of a scan, metres."""
         return gym.spaces.Box(0.0, self.config.range_max_m, shape=(self.config.n_beams,), dtype=np.float32)

@@ -129,6 +129,25 @@ class Odometry:
         # body twist -> wheels -> scaled -> body twist, as one matrix
         self._true_from_commanded = self._j_inv @ np.diag(self.factors) @ self._j
 
+    @property
+    def exact(self) -> bool:
+        """Whether the wheels do what they are told (no wheel noise, no slip)."""
+        return self._exact
+
+    @property
+    def ground_matrix(self) -> FloatArray:
+        """The current true-from-commanded twist matrix of the wheel factors (`ground`'s)."""
+        return self._true_from_commanded
+
+    @property
+    def redraw_countdown(self) -> float:
+        """Seconds until the wheel factors are drawn anew (counted down by `ground`)."""
+        return self._until_redraw
+
+    @redraw_countdown.setter
+    def redraw_countdown(self, seconds: float) -> None:
+        self._until_redraw = seconds
+
     def ground(self, dt: float, rng: np.random.Generator) -> FloatArray | None:
         """The matrix that turns the next dt seconds' commanded twist into the true one (None:
         the wheels do exactly what they are told); draws the wheel factors when they are due."""

@@ -83,6 +83,15 @@ class RewardWeights:
         for name in ("proximity_m", "approach_m"):
             number(f"RewardWeights.{name}", getattr(self, name), 0.0, lo_open=True, unit=" m")
 
+    def vector(self) -> FloatArray:
+        """The weights as `weighted_terms` takes them: the terms' weights in `REWARD_TERMS`' order,
+        `proximity_m` after `proximity`'s and `approach_m` after `approach`'s."""
+        return np.array(
+            [self.progress, self.success, self.bump, self.time, self.proximity, self.proximity_m, self.approach,
+             self.approach_m],
+            dtype=np.float64,
+        )  # fmt: skip
+
 
 @dataclass(frozen=True)
 class EscapeTaskConfig:
@@ -175,9 +184,41 @@ def is_enclosed(x: float, y: float, segments: FloatArray) -> bool:
     return float(hits.mean()) >= ENCLOSED_FRACTION
 
 
-def _closeness(clearance_m: float, within_m: float) -> float:
+# The escape task's reward terms: their names, in the order `weighted_terms` computes them and
+# `RewardWeights.vector` lists their weights. The single env's step (`EscapeTask.reward_terms`)
+# and the vector env's compiled batch (`pico_gym.batched`) both compute them with `weighted_terms`.
+REWARD_TERMS = ("progress", "success", "bump", "time", "proximity", "approach")
+
+
+@njit
+def closeness(clearance_m: float, within_m: float) -> float:
     """0 at `within_m` or more from the walls, rising to 1 at contact: max(0, 1 - clearance / within_m)."""
-    return max(0.0, 1.0 - clearance_m / within_m)
+    c = 1.0 - clearance_m / within_m
+    return c if c > 0.0 else 0.0
+
+
+@njit
+def weighted_terms(
+    weights: FloatArray,
+    progress_m: float,
+    escaped: bool,
+    new_bumps: int,
+    dt_s: float,
+    clearance_m: float,
+    previous_clearance_m: float,
+) -> tuple[float, float, float, float, float, float]:
+    """The weighted reward terms of one step, in `REWARD_TERMS`' order (`weights`:
+    `RewardWeights.vector()`; the clearances: the footprint's after and before the step)."""
+    w_progress, w_success, w_bump, w_time = weights[0], weights[1], weights[2], weights[3]
+    w_proximity, proximity_m, w_approach, approach_m = weights[4], weights[5], weights[6], weights[7]
+    return (
+        w_progress * progress_m,
+        w_success * (1.0 if escaped else 0.0),
+        -w_bump * new_bumps,
+        -w_time * dt_s,
+        -w_proximity * dt_s * closeness(clearance_m, proximity_m),
+        w_approach * (closeness(previous_clearance_m, approach_m) - closeness(clearance_m, approach_m)),
+    )
 
 
 class EscapeTask(ConfiguredTask):
@@ -200,6 +241,7 @@ class EscapeTask(ConfiguredTask):
         self._progress: GeodesicProgress | None = None
         self._line = (0.0,) * 8  # the finish segment, its point and outward normal
         self._out = False  # the centre went out through the finish segment (and not back)
+        self._weights = config.rewards.vector()
         if fixed_map is not None:
             self._check_map(fixed_map)
 
@@ -360,6 +402,31 @@ class EscapeTask(ConfiguredTask):
             escaped,
         )
 
+    # --- what a compiled batch of robots reads and writes (`pico_gym.batched`) ---------------
+    @property
+    def finish_line(self) -> tuple[float, float, float, float, float, float, float, float]:
+        """The finish segment's ends, a point on it and its outward normal, as plain floats."""
+        return self._line
+
+    @property
+    def progress_field(self) -> GeodesicField:
+        """The episode's geodesic field to the finish (the progress term's)."""
+        return self._progress.field
+
+    @property
+    def weights(self) -> FloatArray:
+        """The reward weights as `weighted_terms` takes them (`RewardWeights.vector`)."""
+        return self._weights
+
+    def progress_state(self) -> tuple[float, bool]:
+        """(the geodesic distance at the last pose, whether the centre went out through the line)."""
+        return self._progress.value, self._out
+
+    def set_progress_state(self, value: float, out: bool) -> None:
+        """Put back a progress state a batch stepped on."""
+        self._progress.value = value
+        self._out = out
+
     def info(self) -> dict[str, Any]:
         """`geodesic_to_finish`: the oracle's remaining path length to the finish line [m]."""
         return {"geodesic_to_finish": self._progress.value}
@@ -375,16 +442,10 @@ class EscapeTask(ConfiguredTask):
     ) -> dict[str, float]:
         """The weighted reward terms of one step (clearance_m and previous_clearance_m: the
         footprint's, after and before the step)."""
-        w = self.config.rewards
-        return {
-            "progress": w.progress * progress_m,
-            "success": w.success * float(escaped),
-            "bump": -w.bump * new_bumps,
-            "time": -w.time * dt_s,
-            "proximity": -w.proximity * dt_s * _closeness(clearance_m, w.proximity_m),
-            "approach": w.approach
-            * (_closeness(previous_clearance_m, w.approach_m) - _closeness(clearance_m, w.approach_m)),
-        }
+        terms = weighted_terms(
+            self._weights, progress_m, bool(escaped), int(new_bumps), dt_s, clearance_m, previous_clearance_m
+        )
+        return dict(zip(REWARD_TERMS, terms, strict=True))
 
     def termination(self, escaped: bool, bumps: int, idle_s: float) -> str | None:
         """Why the episode ends now (one of TERMINATION_REASONS but timeout), or None."""
