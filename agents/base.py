@@ -14,6 +14,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from pico_gym.envs.base import pico_env
 from pico_gym.overlay import Overlay
 from pico_gym.robot import RobotConfig
 from pico_gym.sensors.lrf import LrfConfig
@@ -34,7 +35,7 @@ class RobotSpec:
     @staticmethod
     def of(env: gym.Env) -> RobotSpec:
         """The spec of an env's robot (its public configuration, no world state)."""
-        config = env.unwrapped.config
+        config = pico_env(env).config
         return RobotSpec(config.lrf, config.robot, config.dt_s)
 
 

@@ -16,7 +16,10 @@ import sys
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from pico_gym.agents.registry import AGENT_ENTRIES
+from pico_gym.envs.base import pico_env
 from pico_gym.extras import require
 from pico_gym.registry import DEFAULT_ENV_ID, TASKS, task_info
 
@@ -188,7 +191,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     env = gym.make(args.env, render_mode=mode, **_env_options(args))
     args.agent = _agent(args)
     agent = make_agent(args.agent, env, **_agent_kwargs(args, args.agent))
-    env.unwrapped.set_overlay(agent.overlay)
+    pico_env(env).set_overlay(agent.overlay)
     frames: list[Any] = []
 
     def record_frame() -> None:
@@ -214,7 +217,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     if args.png:
         from PIL import Image
 
-        Image.fromarray(env.render()).save(args.png)
+        Image.fromarray(np.asarray(env.render())).save(args.png)
         print(f"wrote {args.png}")
     env.close()
     outcome = f"{record.termination_reason}" + (" (success)" if record.success else " (no success)")

@@ -29,6 +29,7 @@ import numpy as np
 import pico_gym  # noqa: F401
 from pico_gym.agents.evaluation import EpisodeRecord, Summary, run_episode, run_episodes, summarize
 from pico_gym.agents.registry import AGENT_ENTRIES, make_agent
+from pico_gym.envs.base import pico_env
 from pico_gym.extras import require
 from pico_gym.registry import DEFAULT_ENV_ID, Suite, SuiteGroup, task_info
 
@@ -82,7 +83,7 @@ def run_comparison(
     episodes: Episodes,
     agent_kwargs: dict[str, dict[str, Any]] | None = None,
     workers: int | None = None,
-    progress: Callable[[int], None] | None = None,
+    progress: Callable[[int], Any] | None = None,
     ray_address: str | None = None,
     reset_options: dict[str, Any] | None = None,
 ) -> dict[str, list[EpisodeRecord]]:
@@ -399,19 +400,21 @@ def plot_trajectories(
         for name in agents:
             agent = make_agent(name, env, **agent_kwargs.get(name, {}))
             record = run_episode(env, agent, seed, name)
-            world = env.unwrapped.episode.map
-            path = np.array([(p.x, p.y) for p in env.unwrapped.trajectory])
+            base = pico_env(env)
+            world = base.scene.map
+            path = np.array([(p.x, p.y) for p in base.trajectory])
             label = f"{name}: {record.termination_reason} {record.time_s:.0f} s"
             ax.plot(path[:, 0], path[:, 1], lw=1.4, color=colour(name), label=label)
             if record.bumps:
                 ax.plot(*path[-1], "x", color="red", ms=8, mew=2)
         assert world is not None
-        for x0, y0, x1, y1 in env.unwrapped.scene.static_seen:
+        base = pico_env(env)
+        for x0, y0, x1, y1 in base.scene.static_seen:
             ax.plot([x0, x1], [y0, y1], color="black", lw=1.5)
         if world.finish is not None:
             f = np.asarray(world.finish)
             ax.plot(f[:, 0], f[:, 1], color="green", lw=1, ls="--")
-        start = env.unwrapped.trajectory[0]
+        start = base.trajectory[0]
         ax.plot(start.x, start.y, "o", color="black", ms=5)
         ax.set_aspect("equal")
         ax.set_title(f"{group.label}, seed {seed}", fontsize=9)
@@ -432,7 +435,7 @@ def compare(
     agent_kwargs: dict[str, dict[str, Any]] | None = None,
     workers: int | None = None,
     n_rooms: int = 3,
-    progress: Callable[[int], None] | None = None,
+    progress: Callable[[int], Any] | None = None,
     ray_address: str | None = None,
 ) -> dict[str, Summary]:
     """Run, write results.{md,json,csv} and the plots into `out`; returns the summaries.

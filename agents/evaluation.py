@@ -24,6 +24,7 @@ import numpy as np
 
 import pico_gym  # noqa: F401  (registers the env ids)
 from pico_gym.agents import make_agent
+from pico_gym.envs.base import pico_env
 from pico_gym.metrics import max_of, median_of
 from pico_gym.registry import DEFAULT_ENV_ID, env_id_of, task_info
 
@@ -122,14 +123,15 @@ def run_episode(
     agent.reset(obs, info)
     metrics = task_info(env_id_of(env)).load_metrics()()
     metrics.reset(env, info)
-    dt = env.unwrapped.config.dt_s
+    base = pico_env(env)
+    dt = base.config.dt_s
     localisation = _Localisation(agent, dt)
     times = []
     near_mover = 0.0
     bumps_seen = 0
     bump_xy: list[tuple[float, float]] = []
     while True:
-        truth = env.unwrapped.pose  # privileged: scores the agent, never reaches it
+        truth = base.pose  # privileged: scores the agent, never reaches it
         t0 = time.perf_counter()
         action = agent.act(obs)
         times.append(time.perf_counter() - t0)
@@ -141,7 +143,7 @@ def run_episode(
             bump_xy.append((round(float(info["pose"][0]), 4), round(float(info["pose"][1]), 4)))
         movers = info.get("movers")
         if movers is not None and len(movers):
-            near_mover += dt * float(_near_a_mover(info["pose"], movers, env.unwrapped.scene.movers))
+            near_mover += dt * float(_near_a_mover(info["pose"], movers, base.scene.movers))
         if on_step is not None:
             on_step()
         if terminated or truncated:
@@ -149,7 +151,7 @@ def run_episode(
     return EpisodeRecord(
         agent=agent_name or getattr(agent, "name", "agent"),
         seed=seed,
-        map=env.unwrapped.episode.map.name,
+        map=base.world_name,
         success=bool(info["is_success"]),
         termination_reason=str(info["termination_reason"]),
         time_s=round(float(info["sim_time"]), 6),
@@ -194,7 +196,7 @@ def run_episodes(
     env_kwargs: dict[str, Any] | None = None,
     agent_kwargs: dict[str, Any] | None = None,
     workers: int | None = None,
-    progress: Callable[[int], None] | None = None,
+    progress: Callable[[int], Any] | None = None,
     env_id: str = DEFAULT_ENV_ID,
     ray_address: str | None = None,
     reset_options: dict[str, Any] | None = None,
@@ -319,9 +321,7 @@ def summarize(records: list[EpisodeRecord], env_id: str | None = None) -> Summar
         act_ms_median=float(np.median([r.act_ms for r in records])),
         progress_mean=float(np.mean([r.progress for r in records])),
         bumps_by_kind={k: sum(r.bumps_by_kind.get(k, 0) for r in records) for k in _kinds(records)},
-        localised_within_rate=_rate(
-            records, lambda r: r.localise_error_m < 0.05 and r.localise_error_deg < 2.0, lambda r: r.localise_error_m
-        ),
+        localised_within_rate=_rate(records, _localised_within, lambda r: r.localise_error_m),
         localise_time_median_s=median_of(r.localise_time_s for r in records),
         localise_error_median_m=median_of(r.localise_error_m for r in records),
         max_localise_error_median_m=median_of(r.max_localise_error_m for r in records),
@@ -330,6 +330,12 @@ def summarize(records: list[EpisodeRecord], env_id: str | None = None) -> Summar
         metrics=task_info(env_id).load_metrics().summarize(records) if env_id is not None else {},
         env_id=env_id,
     )
+
+
+def _localised_within(r: EpisodeRecord, metres: float = 0.05, degrees: float = 2.0) -> bool:
+    """Whether the agent's first pose was within `metres` and `degrees` of the truth."""
+    m, d = r.localise_error_m, r.localise_error_deg
+    return m is not None and d is not None and m < metres and d < degrees
 
 
 def _kinds(records: list[EpisodeRecord]) -> list[str]:

@@ -24,7 +24,7 @@ odometry frame in between and re-encoded from the newest odometry each step).
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, SupportsFloat
 
 import gymnasium as gym
 import numpy as np
@@ -112,6 +112,6 @@ class ExitGoalObservation(gym.Wrapper):
         obs, info = self.env.reset(**kwargs)
         return {**obs, "point_goal": self.goal.reset(obs)}, info
 
-    def step(self, action: Any) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
+    def step(self, action: Any) -> tuple[dict[str, np.ndarray], SupportsFloat, bool, bool, dict[str, Any]]:
         obs, reward, terminated, truncated, info = self.env.step(action)
         return {**obs, "point_goal": self.goal.update(obs)}, reward, terminated, truncated, info

@@ -23,6 +23,14 @@ from pico_gym.registry import env_id_of, load_entry
 ANY_TASK = "*"
 
 
+def _n_actions(env: gym.Env) -> int:
+    """How many components the env's action has (a Box's size)."""
+    shape = env.action_space.shape
+    if shape is None or len(shape) != 1:
+        raise ValueError(f"pico-gym's agents act on a flat Box action space, got {env.action_space}")
+    return int(shape[0])
+
+
 @dataclass(frozen=True)
 class AgentEntry:
     """An agent's registration.
@@ -112,12 +120,13 @@ def make_agent(name: str, env: gym.Env, **kwargs: Any) -> Agent:
     silent_ones = [a for a, e in _AGENTS.items() if e.may_stay_silent]
     if never_announce and not entry.may_stay_silent:
         raise ValueError(f"never_announce is for the floor baselines ({', '.join(silent_ones)}), not {name}")
-    extras = env.action_space.shape[0] - 3
+    n_actions = _n_actions(env)
+    extras = n_actions - 3
     announcing = env_id in entry.announces
     if extras and not (announcing or never_announce):
         announcers = [a for a, e in _AGENTS.items() if env_id in e.announces]
         raise ValueError(
-            f"the {name} agent acts with a twist (vx, vy, w); {env_id} here takes {env.action_space.shape[0]} "
+            f"the {name} agent acts with a twist (vx, vy, w); {env_id} here takes {n_actions} "
             f"action components (arrival='announce'): use arrival='dwell', or an agent that announces: "
             f"{', '.join(announcers)} ({env_id})"
             + (", or never_announce=True (it then never announces)" if entry.may_stay_silent else "")

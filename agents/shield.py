@@ -268,7 +268,7 @@ def blind_turn(
         return w
     ring = math.hypot(cfg.half_depth, cfg.half_width) + _RING_SLACK_M
 
-    def outside(x: FloatArray, y: FloatArray) -> FloatArray:
+    def outside(x: FloatArray, y: FloatArray) -> np.ndarray:
         return np.hypot(x, y) > ring
 
     view = (angle_min_rad, angle_max_rad)
@@ -304,7 +304,7 @@ def blind_translation(
         return vx, vy
     hd, hw = cfg.half_depth + _RING_SLACK_M, cfg.half_width + _RING_SLACK_M
 
-    def outside(x: FloatArray, y: FloatArray) -> FloatArray:
+    def outside(x: FloatArray, y: FloatArray) -> np.ndarray:
         return (np.abs(x) > hd) | (np.abs(y) > hw)
 
     view = (angle_min_rad, angle_max_rad)
@@ -333,7 +333,7 @@ def behind_seen_free(cfg: MotionConfig, seen_free: Callable[[FloatArray], FloatA
 def _rear_enters_unseen(
     twist: tuple[float, float, float],
     cfg: MotionConfig,
-    outside: Callable[[FloatArray, FloatArray], FloatArray],
+    outside: Callable[[FloatArray, FloatArray], np.ndarray],
     view: tuple[float, float],
     seen_free: Callable[[FloatArray], FloatArray] | None,
 ) -> bool:

@@ -225,13 +225,14 @@ class EscapeBatch:
         n = len(envs)
         first = envs[0]
         cfg = first.config
-        task_cfg = first.task.config
+        tasks = [_escape_task(env) for env in envs]
+        task_cfg = tasks[0].config
         rule = task_cfg.idle_rule
         robot = cfg.robot
         self.shared = np.concatenate(
             [[robot.max_speed_mps, robot.max_turn_rate_radps, cfg.dt_s, 0.0, 0.0, cfg.physics.substep_s,
               rule.speed_mps, rule.turn_rate_radps, task_cfg.idle_time_s, task_cfg.time_limit_s],
-             first.task.weights],
+             tasks[0].weights],
         )  # fmt: skip
         self.ishared = np.array([1, task_cfg.collision == "terminate"], dtype=np.int64)
         self.state = np.zeros((n, _N_STATE))
@@ -296,7 +297,7 @@ class EscapeBatch:
         env = self.envs[i]
         if not self.takes(env):
             return
-        physics, odometry, task = env.physics, env.odometry, env.task
+        physics, odometry, task = env.physics, env.odometry, _escape_task(env)
         x0, y0, a0, may_glide = physics.glide_inputs()
         pending = physics.pending_glide()
         motion = env.motion_state()
@@ -326,7 +327,7 @@ class EscapeBatch:
         c[0:5] = env.odometry_frame()
         c[5:13] = task.finish_line
         c[13:16] = (g.x0, g.y0, g.resolution)
-        c[16] = env.episode.shortest_path_length_m
+        c[16] = motion_shortest(env)
         self.bumps[i], self.bumps_by_kind[i] = env.counted_bumps()
         _, seen, _, one_sided = env.scan_inputs()
         self._join(i, field.distance, env.solid_segments, seen, one_sided)
@@ -348,7 +349,7 @@ class EscapeBatch:
         env.set_motion_state(MotionState(pose, s[_ROOM], s[_CLEAR], s[_MIN_CLEAR], s[_PATH], s[_IDLE], int(k[_STEPS])))
         env.odometry.pose = Pose(s[_OX], s[_OY], s[_OTH])
         env.odometry.redraw_countdown = s[_UNTIL]
-        env.task.set_progress_state(s[_VALUE], bool(s[_OUT]))
+        _escape_task(env).set_progress_state(s[_VALUE], bool(s[_OUT]))
         self.live[i] = False
 
     def _hand_over_trajectory(self, i: int) -> None:
@@ -439,6 +440,19 @@ class EscapeBatch:
             for i in rows[self.istate[rows, _TRAJ] >= _TRAJECTORY_ROOM].tolist():
                 self._hand_over_trajectory(i)
         return events
+
+
+def _escape_task(env: PicoEnv) -> EscapeTask:
+    """A robot's escape task (the batch takes no other)."""
+    task = env.task
+    assert isinstance(task, EscapeTask)
+    return task
+
+
+def motion_shortest(env: PicoEnv) -> float:
+    """The oracle's path length of a robot's episode."""
+    assert env.episode is not None
+    return env.episode.shortest_path_length_m
 
 
 def _room_for(slots: np.ndarray, size: int) -> np.ndarray:

@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from pico_gym.envs.base import pico_env
 from pico_gym.timing import EnvRun, interleaved, machine, median_rate, versions
 
 
@@ -48,7 +49,7 @@ def free_poses(segments: np.ndarray, n: int, seed: int = 0, clearance_m: float =
     return poses
 
 
-def reset_rate(env_id: str, seed: int, repeats: int, **kwargs: object) -> tuple[float, float]:
+def reset_rate(env_id: str, seed: int, repeats: int, **kwargs: Any) -> tuple[float, float]:
     """Median resets/s over `repeats` runs of 20 resets, and the median reset time [ms]."""
     import gymnasium as gym
 
@@ -103,8 +104,8 @@ def bench_task(env_id: str, steps: int, seed: int, repeats: int) -> None:
     for name in info.lrf_maps:
         env = gym.make(env_id, map=name)
         env.reset(seed=seed)
-        scene = env.unwrapped.scene
-        pose = env.unwrapped.pose
+        scene = pico_env(env).scene
+        pose = pico_env(env).pose
         lrf.exact(pose, scene.lrf_static, scene.mover_segments, scene.static_one_sided)
 
         def scans(scene: Any = scene, pose: Any = pose) -> int:
@@ -143,13 +144,13 @@ def bench_lrf(repeats: int, seed: int, scans: int = 300) -> None:
         )
     env = gym.make("PicoHospital-v0", map="hospital_2021")
     env.reset(seed=seed)
-    scene = env.unwrapped.scene
+    scene = pico_env(env).scene
     scenes.append(
         (
             f"hospital_2021 as shipped ({len(scene.static_seen)} segments)",
             scene.static_seen,
             scene.static_one_sided,
-            env.unwrapped.pose,
+            pico_env(env).pose,
         )
     )
     env.close()
@@ -283,7 +284,7 @@ def bench_escape(steps: int, seed: int, repeats: int) -> None:
     print(f"versions: {versions()}")
     print(f"method  : median of {repeats} runs; random actions, one process, a generated room per episode\n")
 
-    rows = [
+    rows: list[tuple[str, dict[str, Any]]] = [
         ("PicoEscape-v0, 1000 beams, defaults (collision=terminate)", {}),
         ("PicoEscape-v0, 1000 beams, collision=continue", {"collision": "continue"}),
         ("PicoEscape-v0, 64 beams, collision=continue", {"collision": "continue", "n_beams": 64}),
@@ -304,10 +305,10 @@ def bench_escape(steps: int, seed: int, repeats: int) -> None:
     toy = EnvRun(steps, seed, env=ToyCeilingEnv())
     made = EnvRun(steps, seed)
     bare = EnvRun(steps, seed, env=gym.make("PicoEscape-v0").unwrapped)
-    rates = interleaved([toy, made, bare], repeats)
+    toy_rates = interleaved([toy, made, bare], repeats)
     for label, r in zip(("toy ceiling (pymunk body + exact scan, 20 segments)", "PicoEscape-v0 through gym.make",
-                         "PicoEscape-v0 unwrapped"), rates, strict=True):  # fmt: skip
-        ratio = statistics.median(x / t for x, t in zip(r, rates[0], strict=True))
+                         "PicoEscape-v0 unwrapped"), toy_rates, strict=True):  # fmt: skip
+        ratio = statistics.median(x / t for x, t in zip(r, toy_rates[0], strict=True))
         print(f"{label:<60} {statistics.median(r):9,.0f} steps/s   {ratio:5.2f}x the toy (median of per-round ratios)")
 
     env = gym.make("PicoEscape-v0")
@@ -343,10 +344,10 @@ def bench_escape(steps: int, seed: int, repeats: int) -> None:
 
     single = EnvRun(steps, seed)
     vec_rows = [("vector_entry_point", 16), ("sync", 16), ("vector_entry_point", 2), ("async", 2)]
-    rates = interleaved([single] + [vec_rate(mode, n) for mode, n in vec_rows], repeats)
-    print(f"{'PicoEscape-v0, one env (gym.make)':<60} {statistics.median(rates[0]):9,.0f} steps/s")
-    for (mode, n), r in zip(vec_rows, rates[1:], strict=True):
-        ratio = statistics.median(x / s for x, s in zip(r, rates[0], strict=True))
+    vec_rates = interleaved([single] + [vec_rate(mode, n) for mode, n in vec_rows], repeats)
+    print(f"{'PicoEscape-v0, one env (gym.make)':<60} {statistics.median(vec_rates[0]):9,.0f} steps/s")
+    for (mode, n), r in zip(vec_rows, vec_rates[1:], strict=True):
+        ratio = statistics.median(x / s for x, s in zip(r, vec_rates[0], strict=True))
         label = f"gymnasium.make_vec, {n} envs, {mode}"
         print(f"{label:<60} {statistics.median(r):9,.0f} env steps/s  {ratio:5.2f}x one env (aggregate)")
 
@@ -363,7 +364,10 @@ def bench_walls(steps_total: int, seed: int) -> int:
     from pico_gym.world.geometry import footprint_clearance
 
     rng = np.random.default_rng(seed)
-    settings = [("generated room", {}), ("generated room, 3 obstacles", {"n_obstacles": 3})]
+    settings: list[tuple[str, dict[str, Any]]] = [
+        ("generated room", {}),
+        ("generated room, 3 obstacles", {"n_obstacles": 3}),
+    ]
     settings += [(m, {"map": m, "sample_start": True}) for m in shipped_maps() if m.startswith("escape")]
     robot, physics = RobotConfig(), PhysicsConfig()
     # The highest speed the default physics accepts at the full turn rate (check_solid's limit).
@@ -381,19 +385,21 @@ def bench_walls(steps_total: int, seed: int) -> int:
     print(f"machine : {machine()}")
     for _name, options in settings:
         for speed in speeds:
-            kwargs = {"collision": "continue", "max_speed_mps": speed, "time_limit_s": 1e5, "idle_time_s": 1e5}
+            kwargs: dict[str, Any] = {
+                "collision": "continue", "max_speed_mps": speed, "time_limit_s": 1e5, "idle_time_s": 1e5,
+            }  # fmt: skip
             kwargs.update(options)
             env = gym.make("PicoEscape-v0", **kwargs)
             env.reset(seed=int(rng.integers(1 << 30)))
-            outline = env.unwrapped.config.robot.outline
-            high = env.action_space.high
+            outline = pico_env(env).config.robot.outline
+            high = pico_env(env).action_space.high
             done = 0
             while done < per_setting:
                 # Hold one full-speed command (drive and spin) for 0.5-3 s, into whatever is there.
                 action = high * rng.choice([-1.0, 1.0], size=3) * rng.choice([0.0, 1.0], size=3, p=[0.2, 0.8])
                 for _ in range(int(rng.integers(5, 30))):
                     _, _, terminated, truncated, info = env.step(action)
-                    u = env.unwrapped
+                    u = pico_env(env)
                     pose = u.pose
                     clearance = footprint_clearance(pose.x, pose.y, pose.theta, outline, u.scene.static_solid, 0.05)
                     steps += 1
@@ -405,7 +411,7 @@ def bench_walls(steps_total: int, seed: int) -> int:
                         held += u.physics.held
                         env.reset(seed=int(rng.integers(1 << 30)))
                         break
-            held += env.unwrapped.physics.held
+            held += pico_env(env).physics.held
             env.close()
     rate = steps / (time.perf_counter() - t0)
     print(

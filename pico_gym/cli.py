@@ -13,6 +13,7 @@ import argparse
 import sys
 from collections.abc import Sequence
 from importlib.metadata import entry_points
+from typing import Any
 
 from gymnasium.error import DependencyNotInstalled
 
@@ -71,6 +72,14 @@ def cmd_bench_walls(args: argparse.Namespace) -> int:
 # --- entry point ----------------------------------------------------------------------------
 
 
+class _ParserWithDefaults(argparse.ArgumentParser):
+    """A sub-command's parser: its help shows every option's default (`HelpFormatter`)."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        kwargs.setdefault("formatter_class", HelpFormatter)
+        super().__init__(*args, **kwargs)
+
+
 class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
     """Shows every option's default (options without one, or with None, show none)."""
 
@@ -87,14 +96,7 @@ def build_parser() -> argparse.ArgumentParser:
         prog="pico-gym", description="PICO challenges as Gymnasium environments.", formatter_class=HelpFormatter
     )
     parser.add_argument("--version", action="version", version=f"pico-gym {pico_gym.__version__}")
-    sub = parser.add_subparsers(dest="command", required=True)
-    add_parser = sub.add_parser
-
-    def add_parser_with_defaults(*args: object, **kwargs: object) -> argparse.ArgumentParser:
-        kwargs.setdefault("formatter_class", HelpFormatter)
-        return add_parser(*args, **kwargs)
-
-    sub.add_parser = add_parser_with_defaults  # type: ignore[method-assign]  (every command shows defaults)
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_ParserWithDefaults)
 
     p = sub.add_parser("maps", help="list the shipped maps, or draw one to a PNG")
     p.add_argument("name", nargs="?", help="a map to draw")

@@ -36,7 +36,7 @@ def _set(config: C, path: tuple[str, ...], value: Any) -> C:
         value = _set(current, path[1:], value)
     elif dataclasses.is_dataclass(current) and isinstance(value, dict):
         value = with_overrides(current, **value)
-    return dataclasses.replace(config, **{head: value})
+    return dataclasses.replace(config, **{head: value})  # type: ignore[type-var]  # (C is a dataclass)
 
 
 def all_options(config: Any, path: tuple[str, ...] = ()) -> list[str]:

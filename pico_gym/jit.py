@@ -26,10 +26,10 @@ try:  # numba's cache classes are internal; without them the kernels compile in 
         UserWideCacheLocator,
     )
 
-    class _UserCacheImpl(CompileResultCacheImpl):  # type: ignore[misc]
+    class _UserCacheImpl(CompileResultCacheImpl):
         _locator_classes = [UserProvidedCacheLocator, UserWideCacheLocator]
 
-    class _UserCache(FunctionCache):  # type: ignore[misc]
+    class _UserCache(FunctionCache):
         """numba's function cache, located outside the source tree."""
 
         _impl_class = _UserCacheImpl
@@ -50,4 +50,4 @@ def njit(function: F | None = None, **options: Any) -> Any:
             dispatcher._cache = _UserCache(function)
         except RuntimeError:  # no writable user cache directory: compile in memory only
             pass
-    return dispatcher  # type: ignore[return-value]
+    return dispatcher

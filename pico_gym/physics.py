@@ -225,7 +225,7 @@ class Physics:
         movers = scene.movers if scene is not None else None
         for i, rec in enumerate(movers.records if movers is not None else ()):
             body = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
-            x, y, yaw = movers.state[i, :3]
+            x, y, yaw = movers.state[i, :3]  # type: ignore[union-attr]  # (records only when movers)
             body.position = (float(x), float(y))
             body.angle = float(yaw)
             shape = pymunk.Poly.create_box(body, (rec.length, rec.width))
@@ -326,7 +326,7 @@ class Physics:
     def _begin(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data: object) -> None:
         if self.contacts == 0 and self.time_s - self._contact_ended_s >= self.config.bump_debounce_s:
             self.bumps += 1
-            kind = int(data) if isinstance(data, int) else WALL  # type: ignore[call-overload]
+            kind = int(data) if isinstance(data, int) else WALL
             self.bumps_by_kind[kind] += 1
             self.bump_log.append(KINDS[kind])
         self.contacts += 1
@@ -396,7 +396,7 @@ class Physics:
             self._hold(x0, y0, angle)
         if self._mover_bodies:
             self._place_bodies()
-            self.scene.update_movers()
+            self._scene().update_movers()
 
     def _hold(self, x0: float, y0: float, angle0: float) -> None:
         """Keep the guarantees of a sub-step (see `Physics`) after pymunk has taken it.
@@ -436,12 +436,17 @@ class Physics:
             body.angular_velocity = 0.0
             self.held += 1
 
+    def _scene(self) -> Scene:
+        """The scene (movers exist only with one)."""
+        assert self.scene is not None
+        return self.scene
+
     def _move_movers(self, h: float) -> None:
         """Advance the scene's movers by one sub-step and give their bodies the matching velocity.
 
         pymunk moves a kinematic body by its velocity, so a body is touched only when its mover's
         velocity changes (most of the time a mover waits, or walks straight at a constant speed)."""
-        movers = self.scene.movers
+        movers = self._scene().movers
         x, y = self.body.position
         if movers.advance(h, x, y):
             for body, (vx, vy) in zip(self._mover_bodies, movers.velocity.tolist(), strict=True):
@@ -449,7 +454,7 @@ class Physics:
 
     def _place_bodies(self) -> None:
         """Put the kinematic bodies exactly where the scene's movers are (no drift)."""
-        for body, (x, y) in zip(self._mover_bodies, self.scene.movers.positions().tolist(), strict=True):
+        for body, (x, y) in zip(self._mover_bodies, self._scene().movers.positions().tolist(), strict=True):
             body.position = (x, y)
             if self._stop_bodies:
                 body.velocity = (0.0, 0.0)
@@ -458,7 +463,7 @@ class Physics:
     def _advance_movers_gliding(self, vx: float, vy: float, w: float, n: int, h: float) -> None:
         """The movers' sub-steps while the robot glides (no contact possible this step)."""
         x, y, angle = self._xya()
-        scene = self.scene
+        scene = self._scene()
         # The bodies sleep through a glide (no contact is possible): they are stopped and put where
         # their movers are only when pymunk steps again (`_place_bodies`).
         if scene.movers.glide(x, y, angle, vx, vy, w, n, h, scene.mover_segments):

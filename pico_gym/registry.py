@@ -16,12 +16,14 @@ is its env file, its task module, its world module and one `register_task` call.
 from __future__ import annotations
 
 import importlib
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Any
 
 from gymnasium.envs.registration import register, registry
+
+from pico_gym.metrics import EpisodeMetrics
 
 # The env the command line plays when none is named.
 DEFAULT_ENV_ID = "PicoEscape-v0"
@@ -140,7 +142,7 @@ class TaskInfo:
         own = tuple(s.name for s in self.suites)
         return (*own, *(n for n in ("generated", "maps", "all") if n not in own))
 
-    def load_metrics(self) -> Callable[[], Any]:
+    def load_metrics(self) -> type[EpisodeMetrics]:
         """The task's metrics class (imported on first use)."""
         return load_entry(self.metrics)
 
@@ -152,8 +154,10 @@ TASKS: Mapping[str, TaskInfo] = MappingProxyType(_TASKS)
 def register_task(info: TaskInfo) -> None:
     """Register a task: its env id with Gymnasium (once; a second call does nothing) and its info."""
     if info.env_id not in registry:
-        kwargs = {"vector_entry_point": info.vector_entry_point} if info.vector_entry_point else {}
-        register(id=info.env_id, entry_point=info.entry_point, **kwargs)
+        if info.vector_entry_point:
+            register(id=info.env_id, entry_point=info.entry_point, vector_entry_point=info.vector_entry_point)
+        else:
+            register(id=info.env_id, entry_point=info.entry_point)
     _TASKS[info.env_id] = info
 
 

@@ -202,6 +202,7 @@ class Renderer:
                 self.window = pygame.display.set_mode((CANVAS_PX, CANVAS_PX))
                 pygame.display.set_caption("pico-gym")
                 self.clock = pygame.time.Clock()
+            assert self.window is not None and self.clock is not None
             self.window.blit(surface, (0, 0))
             pygame.event.pump()
             pygame.display.flip()

@@ -7,7 +7,7 @@ import os
 import platform
 import statistics
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -51,7 +51,7 @@ def median_rate(fn: Callable[[], int], repeats: int) -> tuple[float, list[float]
     return statistics.median(rates), rates
 
 
-def interleaved(runs: list[Callable[[], int]], repeats: int) -> list[list[float]]:
+def interleaved(runs: Sequence[Callable[[], int]], repeats: int) -> list[list[float]]:
     """Rates of each run, measured in `repeats` rounds that take every run in turn (same load)."""
     rates: list[list[float]] = [[] for _ in runs]
     for _ in range(repeats):

@@ -27,6 +27,7 @@ would take.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from functools import partial
 from typing import Any
 
@@ -36,7 +37,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from pico_gym.batched import N_INFO, REASONS, REWARD_TERMS, EscapeBatch, escape_infos
-from pico_gym.envs.base import _NO_EXTRAS
+from pico_gym.envs.base import _NO_EXTRAS, pico_env
 from pico_gym.jit import njit
 from pico_gym.sensors.lrf import _cast, _noisy
 from pico_gym.tasks.escape import EscapeTask
@@ -109,7 +110,7 @@ class PicoVectorEnv(VectorEnv):
         if mode not in (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP):
             raise ValueError(f"autoreset_mode must be 'NextStep' or 'SameStep', got {autoreset_mode!r}")
         kwargs.pop("max_episode_steps", None)  # gymnasium passes the spec's (None: pico-gym envs time out themselves)
-        self._envs = [gym.make(env_id, **kwargs).unwrapped for _ in range(num_envs)]
+        self._envs = [pico_env(gym.make(env_id, **kwargs)) for _ in range(num_envs)]
         first = self._envs[0]
         self.num_envs = num_envs
         self.single_observation_space = first.observation_space
@@ -163,7 +164,8 @@ class PicoVectorEnv(VectorEnv):
         if all(a is b for a, b in zip(seen, self._scenes, strict=True)):
             return
         self._scenes = seen
-        segments, flags = [], []
+        segments: list[np.ndarray] = []
+        flags: list[np.ndarray] = []
         n_seg = n_flag = 0
         for i, env in enumerate(self._envs):
             _, static, movers, one_sided = env.scan_inputs()
@@ -175,7 +177,7 @@ class PicoVectorEnv(VectorEnv):
             k = 0 if one_sided is None else len(one_sided)
             self._bounds[i] = (n_seg, n_seg + len(static), n_flag, n_flag + k)
             segments.append(static)
-            if k:
+            if one_sided is not None and k:
                 flags.append(one_sided)
             n_seg += len(static)
             n_flag += k
@@ -333,7 +335,8 @@ class PicoVectorEnv(VectorEnv):
             if code > 0 or ends[i, 1]:  # the episode ended in the batch
                 batch.sync_out(i)
                 terms = dict(zip(REWARD_TERMS, values[10:16, i].tolist(), strict=True))
-                reason = REASONS[code] if code > 0 else "timeout"
+                reason = REASONS[code] if code > 0 else None
+                reason = "timeout" if reason is None else reason
                 patches[i] = env.end_stepped_elsewhere(terms, reason, bool(ends[i, 2]), float(values[16, i]))
             else:
                 if code < 0:  # a contact is possible: the physics steps it, in the robot's own env
@@ -409,7 +412,7 @@ class PicoVectorEnv(VectorEnv):
     def _odometry(self) -> np.ndarray:
         return np.array([env.odometry.pose for env in self._envs], dtype=np.float32)
 
-    def _batch_infos(self, infos: list[dict[str, Any] | None]) -> dict[str, Any]:
+    def _batch_infos(self, infos: Sequence[dict[str, Any] | None]) -> dict[str, Any]:
         """Per key, one array over the envs and a `_key` mask of the envs that have it: what
         `VectorEnv._add_info` builds env by env, built key by key. Arrays whose shape differs
         between envs (the hospital's `movers`, one row per person) go in an object array, where

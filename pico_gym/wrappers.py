@@ -28,11 +28,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass
-from typing import Any, Literal
+from typing import Any, Literal, SupportsFloat
 
 import gymnasium as gym
 import numpy as np
 
+from pico_gym.envs.base import pico_env
 from pico_gym.jit import njit
 from pico_gym.robot import RobotConfig
 from pico_gym.sensors.lrf import LrfConfig
@@ -119,6 +120,21 @@ def unit_action(action: np.ndarray, low: np.ndarray, high: np.ndarray) -> np.nda
 
 
 # --- single-purpose wrappers ----------------------------------------------------------------
+def _dict_spaces(env: gym.Env) -> dict[str, gym.Space]:
+    """The parts of an env's Dict observation space (pico-gym's envs observe a dict)."""
+    space = env.observation_space
+    if not isinstance(space, gym.spaces.Dict):
+        raise TypeError(f"expected an env with a Dict observation space, got {space}")
+    return dict(space.spaces)
+
+
+def _box(space: gym.Space) -> gym.spaces.Box:
+    """A Box space (pico-gym's actions are one)."""
+    if not isinstance(space, gym.spaces.Box):
+        raise TypeError(f"expected a Box action space, got {space}")
+    return space
+
+
 def _env_config(env: gym.Env) -> Any:
     config = getattr(env.unwrapped, "config", None)
     if config is None or not hasattr(config, "lrf"):
@@ -150,7 +166,7 @@ class MinPoolLrf(gym.ObservationWrapper):
         self.range_max = lrf.range_max_m
         self.normalize, self.max_pool, self.scale = normalize, max_pool, scale
         high = 1.0 if normalize else lrf.range_max_m
-        spaces = dict(env.observation_space.spaces)
+        spaces = _dict_spaces(env)
         spaces["lrf"] = gym.spaces.Box(0.0, high, (n_sectors,), np.float32)
         if max_pool:
             spaces["lrf_max"] = gym.spaces.Box(0.0, high, (n_sectors,), np.float32)
@@ -165,7 +181,7 @@ class MinPoolLrf(gym.ObservationWrapper):
 
 
 @njit
-def _bin(angle, inv_width, n):  # type: ignore[no-untyped-def]
+def _bin(angle, inv_width, n):
     """The bin of an angle in [-4 pi, 4 pi] (cheaper than a float modulo)."""
     b = int((angle + 4.0 * math.pi) * inv_width)  # >= 0
     while b >= n:
@@ -174,7 +190,7 @@ def _bin(angle, inv_width, n):  # type: ignore[no-untyped-def]
 
 
 @njit
-def _update_memory(memory, ranges, beam_angles, centres, heading, range_max, log_scale):  # type: ignore[no-untyped-def]
+def _update_memory(memory, ranges, beam_angles, centres, heading, range_max, log_scale):
     n = memory.shape[0]
     inv_width = n / (2.0 * math.pi)
     heading = heading % (2.0 * math.pi)  # [0, 2 pi); beam and centre angles are within [-pi, pi]
@@ -216,7 +232,7 @@ def _update_memory(memory, ranges, beam_angles, centres, heading, range_max, log
 
 
 @njit
-def _pool_into(ranges, starts, range_max, reduce_max, log_scale, out):  # type: ignore[no-untyped-def]
+def _pool_into(ranges, starts, range_max, reduce_max, log_scale, out):
     """`min_pool(...)` (or its maximum) of a float32 scan, scaled as `scale_ranges`, into `out`."""
     n = starts.shape[0]
     no_hit = np.float32(range_max)
@@ -274,7 +290,7 @@ class LrfMemory(gym.Wrapper):
         super().__init__(env)
         lrf: LrfConfig = _env_config(env).lrf
         self.memory = RangeMemory(lrf.beam_angles, n_bins, lrf.range_max_m, scale)
-        spaces = dict(env.observation_space.spaces)
+        spaces = _dict_spaces(env)
         spaces["lrf_memory"] = gym.spaces.Box(0.0, 1.0, (n_bins,), np.float32)
         self.observation_space = gym.spaces.Dict(spaces)
 
@@ -286,7 +302,7 @@ class LrfMemory(gym.Wrapper):
         self.memory.reset()
         return self._add(obs), info
 
-    def step(self, action: Any) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
+    def step(self, action: Any) -> tuple[dict[str, np.ndarray], SupportsFloat, bool, bool, dict[str, Any]]:
         obs, reward, terminated, truncated, info = self.env.step(action)
         return self._add(obs), reward, terminated, truncated, info
 
@@ -299,7 +315,7 @@ class OdomVelocity(gym.Wrapper):
         super().__init__(env)
         config = _env_config(env)
         self.robot, self.dt = config.robot, config.dt_s
-        spaces = dict(env.observation_space.spaces)
+        spaces = _dict_spaces(env)
         spaces["odom"] = gym.spaces.Box(-1.5, 1.5, (3,), np.float32)
         self.observation_space = gym.spaces.Dict(spaces)
         self._previous: np.ndarray | None = None
@@ -309,8 +325,9 @@ class OdomVelocity(gym.Wrapper):
         self._previous = obs["odom"]
         return {**obs, "odom": np.zeros(3, np.float32)}, info
 
-    def step(self, action: Any) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
+    def step(self, action: Any) -> tuple[dict[str, np.ndarray], SupportsFloat, bool, bool, dict[str, Any]]:
         obs, reward, terminated, truncated, info = self.env.step(action)
+        assert self._previous is not None  # (set by reset)
         velocity = body_velocity(self._previous, obs["odom"], self.dt, self.robot)
         self._previous = obs["odom"]
         return {**obs, "odom": velocity}, reward, terminated, truncated, info
@@ -342,8 +359,8 @@ def point_goal(env: gym.Env) -> np.ndarray:
     `encode_goal` of the next arrival square's centre, facing its cabinet; once every cabinet is
     done, the robot is at its goal: [0, 0, 1, 0, 1].
     """
-    base = env.unwrapped
-    target = base.task.next_target
+    base = pico_env(env)
+    target = base.task.next_target  # type: ignore[attr-defined]  # (a hospital task's)
     if target is None:
         return np.array([0.0, 0.0, 1.0, 0.0, 1.0], np.float32)
     pose = base.pose
@@ -367,7 +384,7 @@ class PrivilegedPointGoal(gym.Wrapper):
                 f"got {type(env.unwrapped).__name__}"
             )
         super().__init__(env)
-        spaces = dict(env.observation_space.spaces)  # type: ignore[attr-defined]
+        spaces = _dict_spaces(env)
         low = np.array([0.0, -1.0, -1.0, -1.0, -1.0], np.float32)
         spaces["point_goal"] = gym.spaces.Box(low, np.ones(POINT_GOAL_SIZE, np.float32), dtype=np.float32)
         self.observation_space = gym.spaces.Dict(spaces)
@@ -376,7 +393,7 @@ class PrivilegedPointGoal(gym.Wrapper):
         obs, info = self.env.reset(**kwargs)
         return {**obs, "point_goal": point_goal(self.env)}, info
 
-    def step(self, action: Any) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
+    def step(self, action: Any) -> tuple[dict[str, np.ndarray], SupportsFloat, bool, bool, dict[str, Any]]:
         obs, reward, terminated, truncated, info = self.env.step(action)
         return {**obs, "point_goal": point_goal(self.env)}, reward, terminated, truncated, info
 
@@ -620,7 +637,7 @@ class LearningEncoder:
 
 
 @njit
-def _encode_rows(  # type: ignore[no-untyped-def]
+def _encode_rows(
     rows,
     fresh,
     lrf,
@@ -755,7 +772,7 @@ class PicoLearningWrapper(gym.Wrapper):
         trail_sectors: int = 0,
     ) -> None:
         config = _env_config(env)
-        ones = np.ones(env.action_space.shape, np.float32)
+        ones = np.ones(_box(env.action_space).shape, np.float32)
         super().__init__(gym.wrappers.RescaleAction(env, -ones, ones))
         self.learning = LearningConfig(
             n_sectors,
@@ -779,7 +796,7 @@ class PicoLearningWrapper(gym.Wrapper):
         obs, info = self.env.reset(**kwargs)
         return self.encoder.reset(obs), info
 
-    def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+    def step(self, action: Any) -> tuple[np.ndarray, SupportsFloat, bool, bool, dict[str, Any]]:
         obs, reward, terminated, truncated, info = self.env.step(action)
         return self.encoder.encode(obs), reward, terminated, truncated, info
 

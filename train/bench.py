@@ -97,6 +97,7 @@ def cmd_bench_train(args: argparse.Namespace) -> int:
     import torch
     from stable_baselines3.common.vec_env import DummyVecEnv
 
+    from pico_gym.envs.base import pico_env
     from pico_gym.timing import interleaved, machine, versions
     from pico_gym.train.config import ConfigError, check_vector, load_config
     from pico_gym.train.envs import EpisodeSeeds, make_training_env, make_training_vec_env, train_env_kwargs
@@ -170,7 +171,8 @@ def cmd_bench_train(args: argparse.Namespace) -> int:
     bare.reset(seed=args.seed)
     rng = np.random.default_rng(args.seed)
     unit_actions = rng.uniform(-1.0, 1.0, size=(steps, 3)).astype(np.float32)
-    low, high = bare.action_space.low, bare.action_space.high
+    box = pico_env(bare).action_space
+    low, high = box.low, box.high
     raw_actions = (low + (unit_actions + 1.0) * 0.5 * (high - low)).astype(np.float32)
 
     def stepping(env: gym.Env, actions: np.ndarray) -> Callable[[], int]:

@@ -152,9 +152,10 @@ class AtomicCheckpoints(BaseCallback):
             return True
         self.folder.mkdir(parents=True, exist_ok=True)
         steps = self.num_timesteps
-        if self.save_vecnormalize and self.model.get_vec_normalize_env() is not None:
+        normalizer = self.model.get_vec_normalize_env()
+        if self.save_vecnormalize and normalizer is not None:
             tmp = self.folder / f".ppo_vecnormalize_{steps}_steps.pkl.tmp"
-            self.model.get_vec_normalize_env().save(str(tmp))
+            normalizer.save(str(tmp))
             os.replace(tmp, self.folder / f"ppo_vecnormalize_{steps}_steps.pkl")
         tmp = self.folder / f".ppo_{steps}_steps.tmp.zip"
         self.model.save(tmp)

@@ -10,6 +10,7 @@ import gymnasium as gym
 import numpy as np
 
 from pico_gym.agents.base import RobotSpec
+from pico_gym.envs.base import pico_env
 from pico_gym.train.config import MIRROR_POLICY, TRAIN_SEED_MIN, TrainConfig, wrapper_entry
 from pico_gym.train.envs import make_plain_env
 
@@ -29,7 +30,8 @@ def collect_demonstrations(config: TrainConfig, episodes: int, teacher: str = "c
     agents = [make_agent(teacher, e) for e in envs]
     spec = RobotSpec.of(envs[0])
     encoder = LearningEncoder(spec.lrf, spec.robot, spec.dt_s, config.learning)
-    low, high = envs[0].action_space.low, envs[0].action_space.high
+    box = pico_env(envs[0]).action_space
+    low, high = box.low, box.high
     # bc_announce "arrival": the announcement is labelled by where the robot stands (in the next
     # square and facing its cabinet within `ANNOUNCE_LABEL_MARGIN` of the tolerance), not by the
     # teacher's one announcement per cabinet: a label on every such step, a training signal only.
@@ -62,7 +64,7 @@ ANNOUNCE_LABEL_MARGIN = 0.7
 def _announce_label(env: gym.Env, info: dict[str, Any]) -> bool:
     """Whether the robot stands in the next arrival square facing its cabinet (with a margin)."""
     parts = info["arrival"]
-    tolerance = env.unwrapped.task.config.facing_tolerance_rad
+    tolerance = pico_env(env).task.config.facing_tolerance_rad  # type: ignore[attr-defined]  # (a hospital task's)
     return bool(parts["in_square"]) and abs(parts["heading_error"]) <= ANNOUNCE_LABEL_MARGIN * tolerance
 
 

@@ -156,7 +156,7 @@ def load_config(path: str | Path, env_id: str | None = None) -> TrainConfig:
     variants = pico["train_env_variants"]
     if not isinstance(variants, list) or not all(isinstance(v, dict) for v in variants):
         raise ConfigError(f"{path}: {PICO_KEY}.train_env_variants must be a list of env kwargs dicts, got {variants!r}")
-    config = TrainConfig(env_id, zoo, pico, str(path))
+    config = TrainConfig(str(env_id), zoo, pico, str(path))
     if zoo["policy"] == MIRROR_POLICY and zoo.get("normalize"):
         raise ConfigError(f"{path}: {env_id}.policy {MIRROR_POLICY} reflects the raw input: it cannot take normalize")
     if config.learning.point_goal and pico["agent"] != "hybrid":
@@ -213,13 +213,20 @@ def parse_policy_kwargs(text: str | dict[str, Any] | None, source: str) -> dict[
 
             return getattr(torch.nn, node.attr)
         if isinstance(node, ast.Dict):
-            return {value(k): value(v) for k, v in zip(node.keys, node.values, strict=True)}
+            if any(k is None for k in node.keys):
+                raise ValueError("a ** inside a dict is not data")
+            return {value(k): value(v) for k, v in zip(node.keys, node.values, strict=True)}  # type: ignore[arg-type]
         if isinstance(node, (ast.List, ast.Tuple)):
             items = [value(e) for e in node.elts]
             return items if isinstance(node, ast.List) else tuple(items)
         if isinstance(node, ast.Constant):
             return node.value
-        if isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.USub) and isinstance(node.operand, ast.Constant):
+        if (
+            isinstance(node, ast.UnaryOp)
+            and isinstance(node.op, ast.USub)
+            and isinstance(node.operand, ast.Constant)
+            and isinstance(node.operand.value, (int, float))
+        ):
             return -node.operand.value
         raise ValueError(f"{ast.unparse(node)!r} is not data (literals, dict(...), nn.<Activation>)")
 

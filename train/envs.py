@@ -5,6 +5,7 @@ Monitor, and the training VecEnv (SB3's DummyVecEnv or SubprocVecEnv, or pico-gy
 from __future__ import annotations
 
 import importlib
+from collections.abc import Callable
 from typing import Any
 
 import gymnasium as gym
@@ -79,7 +80,11 @@ def make_training_vec_env(config: TrainConfig, seed: int, stream: int = 0) -> An
 
         rngs = [np.random.default_rng([seed, i, stream]) for i in range(n)]
         return VecMonitor(PicoTrainingVecEnv(config.env_id, rngs, config.learning, **train_env_kwargs(config)))
-    factories = [(lambda i=i: make_training_env(config, np.random.default_rng([seed, i, stream]), i)) for i in range(n)]
+
+    def factory(i: int) -> Callable[[], gym.Env]:
+        return lambda: make_training_env(config, np.random.default_rng([seed, i, stream]), i)
+
+    factories = [factory(i) for i in range(n)]
     return SubprocVecEnv(factories) if config.pico["vec_env"] == "subproc" else in_process_vec_env(factories)
 
 

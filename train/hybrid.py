@@ -73,7 +73,7 @@ class HybridTraining(gym.Wrapper):
         obs, reward, terminated, truncated, info = self.env.step(self.driver.finish((vx, vy, w)))
         if not (terminated or truncated):
             obs, more, terminated, truncated, info = self._until_policy(obs, info)
-            reward += more
+            reward = float(reward) + more
         return self._with_goal(obs), float(reward), terminated, truncated, info
 
     def teacher_action(self) -> np.ndarray:

@@ -42,8 +42,10 @@ class MirrorPolicy(ActorCriticPolicy):
         super().__init__(*args, **kwargs)
         if mirror_index is None or mirror_sign is None or mirror_action_sign is None:
             raise ValueError("MirrorPolicy needs mirror_index, mirror_sign and mirror_action_sign")
-        n = int(self.observation_space.shape[0])
-        n_act = int(self.action_space.shape[0])
+        obs_shape, act_shape = self.observation_space.shape, self.action_space.shape
+        assert obs_shape is not None and act_shape is not None  # (Box spaces)
+        n = int(obs_shape[0])
+        n_act = int(act_shape[0])
         self.mirror_index = np.asarray(mirror_index, np.int64)
         self.mirror_sign = np.asarray(mirror_sign, np.float32)
         self.mirror_action_sign = np.asarray(mirror_action_sign, np.float32)[:n_act]
@@ -72,6 +74,7 @@ class MirrorPolicy(ActorCriticPolicy):
 
     def _mu(self, obs: torch.Tensor) -> torch.Tensor:
         features = self.extract_features(obs, self.pi_features_extractor)
+        assert isinstance(features, torch.Tensor)  # (one features extractor for the actor)
         return self.action_net(self.mlp_extractor.forward_actor(features))
 
     def _distribution(self, obs: torch.Tensor) -> Any:
@@ -83,13 +86,15 @@ class MirrorPolicy(ActorCriticPolicy):
         distribution = self._distribution(obs)
         actions = distribution.get_actions(deterministic=deterministic)
         log_prob = distribution.log_prob(actions)
-        return actions.reshape((-1, *self.action_space.shape)), self.predict_values(obs), log_prob
+        return actions.reshape((-1, *(self.action_space.shape or ()))), self.predict_values(obs), log_prob
 
-    def evaluate_actions(self, obs: torch.Tensor, actions: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, Any]:
+    def evaluate_actions(  # type: ignore[override]  # (Box observations only, no dict)
+        self, obs: torch.Tensor, actions: torch.Tensor
+    ) -> tuple[torch.Tensor, torch.Tensor, Any]:
         distribution = self._distribution(obs)
         return self.predict_values(obs), distribution.log_prob(actions), distribution.entropy()
 
-    def get_distribution(self, obs: torch.Tensor) -> Any:
+    def get_distribution(self, obs: torch.Tensor) -> Any:  # type: ignore[override]  # (Box observations only)
         return self._distribution(obs)
 
 

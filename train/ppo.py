@@ -128,9 +128,9 @@ def train(
     if norm is not None:
         from stable_baselines3.common.vec_env import VecNormalize
 
-        stats = resumed and run_dir / "checkpoints" / f"ppo_vecnormalize_{resumed[1]}_steps.pkl"
-        if stats and stats.exists():
-            vec_env = VecNormalize.load(str(stats), vec_env)
+        saved = run_dir / "checkpoints" / f"ppo_vecnormalize_{resumed[1]}_steps.pkl" if resumed else None
+        if saved is not None and saved.exists():
+            vec_env = VecNormalize.load(str(saved), vec_env)
         else:
             vec_env = VecNormalize(vec_env, gamma=float(zoo.get("gamma", 0.99)), **norm)
     hyper = hyper_parameters(zoo)
@@ -164,6 +164,8 @@ def train(
     model.set_logger(configure(str(run_dir / "tb"), ["csv", "tensorboard"]))
     (run_dir / "STOP").unlink(missing_ok=True)
     n_envs = int(zoo["n_envs"])
+    evaluations = PeriodicEval(config, run_dir, int(config.pico["eval_freq"]), int(config.pico["eval_episodes"]))
+    evaluations.clock_before_s = clock_before_s
     callbacks = [
         EpisodeStats(),
         AtomicCheckpoints(
@@ -171,10 +173,9 @@ def train(
             run_dir / "checkpoints",
             save_vecnormalize=norm is not None,
         ),
-        PeriodicEval(config, run_dir, int(config.pico["eval_freq"]), int(config.pico["eval_episodes"])),
+        evaluations,
         StopFile(run_dir / "STOP"),
     ]
-    callbacks[2].clock_before_s = clock_before_s
     remaining = total - model.num_timesteps
     if remaining > 0:
         model.learn(

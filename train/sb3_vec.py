@@ -59,6 +59,7 @@ class PicoSB3VecEnv(VecEnv):
         self._actions = actions
 
     def step_wait(self) -> VecEnvStepReturn:
+        assert self._actions is not None  # (SB3 calls step_async first)
         obs, rewards, terminated, truncated, infos, final = self.venv.step_each(self._actions)
         dones = terminated | truncated
         out: list[dict[str, Any]] = []

@@ -14,7 +14,7 @@ the filtered twist. List it in a config's `env_wrapper` before the learning wrap
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, SupportsFloat
 
 import gymnasium as gym
 import numpy as np
@@ -48,7 +48,7 @@ class ShieldedActions(gym.Wrapper):
         self._ranges = obs["lrf"]
         return obs, info
 
-    def step(self, action: np.ndarray) -> tuple[Any, float, bool, bool, dict[str, Any]]:
+    def step(self, action: np.ndarray) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
         if self._ranges is None:
             raise RuntimeError("ShieldedActions: step() before reset()")
         action = np.asarray(action)

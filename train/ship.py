@@ -121,7 +121,7 @@ def wall_clock(run_dir: Path, timesteps: int) -> float | None:
         (t0, w0), (t1, w1) = before_t[-1], after_t[0]
         at = [w0 + (w1 - w0) * (timesteps - t0) / (t1 - t0)]
     parent, parent_run = _started_from(run_dir)
-    if parent_run is not None:  # (a start from a shipped policy is not counted here)
+    if parent is not None and parent_run is not None:  # (a start from a shipped policy is not counted here)
         before = wall_clock(parent_run, int(parent["timesteps"]))
         if before is None:
             return None
@@ -145,7 +145,7 @@ def history(run_dir: Path) -> list[str]:
     config = yaml.safe_load((run_dir / "config.yaml").read_text())
     lines = []
     parent, parent_run = _started_from(run_dir)
-    if parent_run is not None:
+    if parent is not None and parent_run is not None:
         lines += history(parent_run)
         lines.append(f"then from its checkpoint at {parent['timesteps']:,} steps:")
     elif parent is not None:

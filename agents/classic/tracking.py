@@ -20,6 +20,7 @@ predicted disc is blocked for planning, and it is yielded to outside its pause r
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -152,7 +153,9 @@ class PeopleTracker:
             hospital agent's `_door_frame`); clusters on them are doors, not people.
     """
 
-    def __init__(self, config: TrackerConfig | None = None, doors: list[tuple[FloatArray, FloatArray, float]] = ()):
+    def __init__(
+        self, config: TrackerConfig | None = None, doors: Sequence[tuple[FloatArray, FloatArray, float]] = ()
+    ) -> None:
         self.config = config or TrackerConfig()
         self.doors = list(doors)
         self.tracks: list[Track] = []
@@ -207,10 +210,12 @@ class PeopleTracker:
         for i, c in enumerate(clusters):
             if i in used_c:
                 continue
-            t = self._revive(c, time_s)
-            if t is None:
+            revived = self._revive(c, time_s)
+            if revived is None:
                 t = Track(self._next_id, c.centre, np.zeros(2), c.extent_m, time_s, [(time_s, c.centre)])
                 self._next_id += 1
+            else:
+                t = revived
             self.tracks.append(t)
             joined.append((c, t))
         kept = [t for t in self.tracks if time_s - t.seen_s <= cfg.lost_s]

@@ -176,6 +176,18 @@ class EnvConfig:
         return with_overrides(base, **overrides)
 
 
+def pico_env(env: gym.Env) -> PicoEnv:
+    """The pico-gym env inside an env's wrappers (its `unwrapped`), typed as one.
+
+    Raises:
+        TypeError: for an env that is not a pico-gym env.
+    """
+    inner = env.unwrapped
+    if not isinstance(inner, PicoEnv):
+        raise TypeError(f"expected a pico-gym env (gym.make('PicoEscape-v0') and the like), got {type(inner).__name__}")
+    return inner
+
+
 def with_family(env_id: str, families: dict[str, dict[str, Any]], options: dict[str, Any]) -> dict[str, Any]:
     """`gym.make` options with a named family's settings under them (`family=NAME`; what the
     user gives explicitly wins).
@@ -220,7 +232,7 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self.metadata = dict(self.metadata, render_fps=round(1.0 / config.dt_s))
         self.lrf = Lrf(config.lrf)
         self.odometry = Odometry(config.odometry, config.robot)
-        self.observation_space = gym.spaces.Dict(
+        self.observation_space: gym.spaces.Dict = gym.spaces.Dict(  # type: ignore[assignment]
             {
                 "lrf": self.lrf.space(),
                 "odom": gym.spaces.Box(
@@ -232,7 +244,7 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         )
         extra_low, extra_high = task.action_extras
         self._n_extras = len(extra_low)
-        self.action_space = gym.spaces.Box(
+        self.action_space: gym.spaces.Box = gym.spaces.Box(
             np.concatenate([config.robot.action_low, extra_low]).astype(np.float32),
             np.concatenate([config.robot.action_high, extra_high]).astype(np.float32),
             dtype=np.float32,
@@ -240,11 +252,11 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self._outline = np.ascontiguousarray(config.robot.outline)
         self._limits = (config.robot.max_speed_mps, config.robot.max_turn_rate_radps)
         self._renderer: Any = None
-        self._overlay: Overlay | Callable[[], Overlay] | None = None
+        self._overlay: Overlay | Callable[[], Overlay | None] | None = None
         self._idle = IdleTimer(task.idle_rule)
         self._on_scan = getattr(task, "on_scan", None)
         self.episode: Episode | None = None
-        self.physics: Physics | None = None  # type: ignore[assignment]
+        self.physics: Physics = None  # type: ignore[assignment]  # made by reset; a step before it is refused
         self._shape_pool = StaticShapePool()
         self._finished = False
         self._trajectory: list[Pose] = []
@@ -308,6 +320,7 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self._odom_from_map_cs = (math.cos(self._odom_from_map.theta), math.sin(self._odom_from_map.theta))
         self._bumps_by_kind: tuple[tuple[int, int], dict[str, int]] | None = None  # (counts it was built at, dict)
         self._pose = ep.start
+        self._shortest = ep.shortest_path_length_m
         self.steps = 0
         self.sim_time_s = 0.0
         self._idle.reset()
@@ -511,7 +524,7 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
             "min_clearance": self._min_clearance,
             "sim_time": self.sim_time_s,
             "path_length": self._path_length,
-            "shortest_path_length": self.episode.shortest_path_length_m,
+            "shortest_path_length": self._shortest,
             "is_success": success,
             "termination_reason": reason,
             "reward_terms": reward_terms,
@@ -617,6 +630,13 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         return self._pose
 
     @property
+    def world_name(self) -> str:
+        """The name of the episode's world (its map's, or the generator's)."""
+        if self.episode is None:
+            raise RuntimeError("call reset() first")
+        return self.episode.map.name
+
+    @property
     def map_from_odom(self) -> Pose:
         """Where the odometry frame's origin lies in the map frame (privileged)."""
         return self._map_from_odom
@@ -653,7 +673,7 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         )
 
     # --- rendering -----------------------------------------------------------------------
-    def set_overlay(self, overlay: Overlay | Callable[[], Overlay] | None) -> None:
+    def set_overlay(self, overlay: Overlay | Callable[[], Overlay | None] | None) -> None:
         """Let an agent draw its own view (an Overlay, or a callable returning one per frame)."""
         self._overlay = overlay
 

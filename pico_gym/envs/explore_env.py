@@ -98,6 +98,7 @@ class PicoExploreEnv(PicoEnv):
             raise TypeError(f"PicoExplore-v0 needs an ExploreTaskConfig, got {type(env_config.task).__name__}")
         task = ExploreTask(env_config.task, env_config.robot, env_config.lrf, fixed)
         super().__init__(task, env_config, render_mode)
+        self.explore_task = task
         self._phase_key = env_config.task.phase_observation
         if self._phase_key:
             spaces = dict(self.observation_space.spaces)
@@ -112,7 +113,7 @@ class PicoExploreEnv(PicoEnv):
     def _observation(self) -> dict[str, np.ndarray]:
         obs = super()._observation()
         if self._phase_key:
-            obs["phase"] = np.int64(self.task.phase_code())
+            obs["phase"] = np.int64(self.explore_task.phase_code())  # type: ignore[assignment]  # Discrete(2)
         return obs
 
     @property
@@ -128,4 +129,4 @@ class PicoExploreEnv(PicoEnv):
             raise RuntimeError("call reset() first")
         if not isinstance(belief, OccupancyBelief):
             raise TypeError(f"belief must be an OccupancyBelief, got {type(belief).__name__}")
-        return self.task.belief_iou(belief, self._odom_from_map)
+        return self.explore_task.belief_iou(belief, self._odom_from_map)

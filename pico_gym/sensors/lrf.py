@@ -596,8 +596,7 @@ def lrf_ranges(
         buffer = np.empty(known.shape[1]) if out is None else out
         x, y, th = pose[0], pose[1], pose[2]
         try:
-            kind = type(segments)
-            if kind is np.ndarray:
+            if type(segments) is np.ndarray:
                 flags = _NO_FLAGS if one_sided is None else one_sided
                 if segments.size < _SMALL_SIZE:
                     if small_scan(x, y, th, segments, beam_angles, known, max_range, buffer, flags):
@@ -609,7 +608,7 @@ def lrf_ranges(
                         grid.kernel_args,
                     ):  # fmt: skip
                         return buffer
-            elif kind is SegmentGrid:
+            elif type(segments) is SegmentGrid:
                 if grid_scan(x, y, th, beam_angles, known, max_range, buffer, segments.kernel_args):
                     return buffer
         except TypeError:

@@ -188,10 +188,18 @@ class Task(Protocol):
     termination_reasons: tuple[str, ...]
     #: reset option keys the task reads (beyond the template's "start_pose").
     option_keys: frozenset[str]
-    idle_rule: IdleRule
-    time_limit_s: float
     #: what a start pose must have a path to, for messages ("the finish line").
     goal_name: str
+
+    @property
+    def idle_rule(self) -> IdleRule:
+        """When the robot counts as standing still, and for how long it may."""
+        ...
+
+    @property
+    def time_limit_s(self) -> float:
+        """The episode is truncated at this simulated time [s]."""
+        ...
 
     @property
     def action_extras(self) -> tuple[np.ndarray, np.ndarray]:

@@ -184,6 +184,13 @@ def is_enclosed(x: float, y: float, segments: FloatArray) -> bool:
     return float(hits.mean()) >= ENCLOSED_FRACTION
 
 
+def _finish_of(world: Map) -> FloatArray:
+    """An escape map's finish line, (2, 2) float64 (the task refuses a map without one)."""
+    if world.finish is None:
+        raise MapError(f"{world.source or world.name}: an escape map needs a 'finish' line")
+    return np.asarray(world.finish, dtype=np.float64)
+
+
 # The escape task's reward terms: their names, in the order `weighted_terms` computes them and
 # `RewardWeights.vector` lists their weights. The single env's step (`EscapeTask.reward_terms`)
 # and the vector env's compiled batch (`pico_gym.batched`) both compute them with `weighted_terms`.
@@ -224,7 +231,7 @@ def weighted_terms(
 class EscapeTask(ConfiguredTask):
     """Spawning, success, reward terms and termination for the escape room (a `Task`)."""
 
-    termination_reasons = TERMINATION_REASONS
+    termination_reasons: tuple[str, ...] = TERMINATION_REASONS
     option_keys: frozenset[str] = frozenset()
     goal_name = "the finish line"
 
@@ -238,7 +245,7 @@ class EscapeTask(ConfiguredTask):
         self._field_cache: tuple[Map, GeodesicField] | None = None
         self._finish_point = np.zeros(2)
         self._finish_normal = np.zeros(2)
-        self._progress: GeodesicProgress | None = None
+        self._progress: GeodesicProgress = None  # type: ignore[assignment]  # made by new_episode
         self._line = (0.0,) * 8  # the finish segment, its point and outward normal
         self._out = False  # the centre went out through the finish segment (and not back)
         self._weights = config.rewards.vector()
@@ -263,6 +270,7 @@ class EscapeTask(ConfiguredTask):
             if start is None:
                 fixed = world.start_pose is not None and not self.config.sample_start
                 start = world.start_pose if fixed else self._sample_fixed_start(world, rng)
+        assert start is not None  # (a fixed start is the map's start_pose, else one was drawn)
         # A drawn room's field covers only what the robot can reach before the line (a fixed
         # map's, kept for every episode, covers the whole map).
         field = self._field(world, None if world is self.fixed_map else (start.x, start.y))
@@ -273,7 +281,7 @@ class EscapeTask(ConfiguredTask):
         rear = float(-self.robot.outline[:, 0].min())
         shortest = field.lookup(start.x, start.y) + rear
         self._progress = GeodesicProgress(field, start)
-        (ax, ay), (bx, by) = np.asarray(world.finish, dtype=np.float64).tolist()
+        (ax, ay), (bx, by) = _finish_of(world).tolist()
         p, n = self._finish_point.tolist(), self._finish_normal.tolist()
         self._line = (ax, ay, bx, by, p[0], p[1], n[0], n[1])  # plain floats for the step
         self._out = False
@@ -326,14 +334,14 @@ class EscapeTask(ConfiguredTask):
         grid = Grid.covering(world.bounds, self.config.geodesic_resolution_m, margin=1.0)
         side = self._finish_point - self._finish_normal
         field = geodesic_field(
-            grid, world.solid_segments(), world.finish, (float(side[0]), float(side[1])), start=start
+            grid, world.solid_segments(), _finish_of(world), (float(side[0]), float(side[1])), start=start
         )
         if world is self.fixed_map:
             self._field_cache = (world, field)
         return field
 
     def _set_finish(self, world: Map, start_side: FloatArray) -> None:
-        a, b = world.finish
+        a, b = _finish_of(world)
         d = (b - a) / np.linalg.norm(b - a)
         normal = np.array([-d[1], d[0]])
         if (np.asarray(start_side) - a) @ normal > 0:

@@ -447,8 +447,8 @@ class ExploreTask(ConfiguredTask):
     a prior and the object in place), and the template's `start_pose`.
     """
 
-    termination_reasons = TERMINATION_REASONS
-    option_keys = frozenset({"phase"})
+    termination_reasons: tuple[str, ...] = TERMINATION_REASONS
+    option_keys: frozenset[str] = frozenset({"phase"})
     goal_name = "the object"
 
     def __init__(
@@ -481,7 +481,7 @@ class ExploreTask(ConfiguredTask):
         return np.zeros(0), np.zeros(0)
 
     @property
-    def time_limit_s(self) -> float:  # type: ignore[override]
+    def time_limit_s(self) -> float:
         cfg = self.config
         if cfg.phase_time_limit_s is None:
             return cfg.time_limit_s
@@ -498,6 +498,7 @@ class ExploreTask(ConfiguredTask):
             wall = parking_wall_of(world)
             normal, building = parking_side(world, wall, cfg.coverage_resolution_m)
         else:
+            assert self.fixed_map is not None  # (`_fixed` is made from it)
             world = self.fixed_map
             wall, normal, building = self._fixed
         where = world.source or world.name
@@ -586,7 +587,8 @@ class ExploreTask(ConfiguredTask):
         depth = b.depth
         deepest = np.flatnonzero(depth == depth.max())
         target = int(deepest[int(rng.integers(len(deepest)))])
-        a, c = (float(v) for v in rng.uniform(*self.config.object_side_m, size=2))
+        lo_side, hi_side = self.config.object_side_m
+        a, c = (float(v) for v in rng.uniform(lo_side, hi_side, size=2))
         half = 0.5 * math.hypot(a, c)
         in_room = b.region == target
         for room_m, door_m in ((0.45, 0.6), (0.3, 0.45), (0.22, 0.3)):
@@ -796,6 +798,7 @@ class ExploreTask(ConfiguredTask):
         at reset, and looked up in the belief; the belief's free area is its free cells' area.
         """
         if self._iou_truth is None:
+            assert self.episode is not None  # (the env asks only after a reset)
             world = self.episode.map
             x0, y0, x1, y1 = world.bounds
             res = max(IOU_RESOLUTION_M, math.sqrt((x1 - x0 + 1.0) * (y1 - y0 + 1.0) / IOU_MAX_CELLS))

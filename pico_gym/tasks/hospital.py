@@ -79,7 +79,7 @@ class HospitalRewardWeights:
 
 def _pair(name: str, value: object) -> tuple:
     """`value` as a (lo, hi) pair, or a ValueError naming the option."""
-    if isinstance(value, str) or not hasattr(value, "__len__") or len(value) != 2:  # type: ignore[arg-type]
+    if isinstance(value, str) or not hasattr(value, "__len__") or len(value) != 2:
         raise ValueError(f"{name} must be a range (lo, hi) or a single integer, got {value!r}")
     return tuple(value)  # type: ignore[arg-type]
 
@@ -227,8 +227,8 @@ class HospitalTask(ConfiguredTask):
     open), and the template's `start_pose`.
     """
 
-    termination_reasons = TERMINATION_REASONS
-    option_keys = frozenset({"cabinet_order", "closed_doors"})
+    termination_reasons: tuple[str, ...] = TERMINATION_REASONS
+    option_keys: frozenset[str] = frozenset({"cabinet_order", "closed_doors"})
     goal_name = "every cabinet of the order"
 
     def __init__(self, config: HospitalTaskConfig, robot: RobotConfig, fixed_map: Map | None = None) -> None:
@@ -321,6 +321,7 @@ class HospitalTask(ConfiguredTask):
         self._false = 0
         self._progress = GeodesicProgress(fields[0], start)
         self._arrival_parts = targets[0].arrival(start, cfg.facing_tolerance_rad)
+        self._scene = scene
         self.episode = Episode(scene, start, shortest, public, {"legs": legs, "fields": fields})
         return self.episode
 
@@ -510,7 +511,8 @@ class HospitalTask(ConfiguredTask):
                 break
             r, c = free[int(rng.integers(len(free)))]
             cx, cy = float(xs[r, c]), float(ys[r, c])
-            a, b = rng.uniform(*self.config.box_side_m, size=2)
+            lo_side, hi_side = self.config.box_side_m
+            a, b = rng.uniform(lo_side, hi_side, size=2)
             yaw = float(rng.uniform(0, math.pi)) if rng.random() < 0.5 else 0.0
             poly = box_corners(cx, cy, yaw, float(a), float(b))
             if geometry.polygon_clearance(poly, static, 0.06) < 0.05:
@@ -598,7 +600,7 @@ class HospitalTask(ConfiguredTask):
             "next_cabinet": self._targets[done].index if done < n else None,
             "geodesic_to_next": self._progress.value if done < n else 0.0,
             "false_announcements": self._false,
-            "movers": self.episode.scene.mover_poses(),
+            "movers": self._scene.mover_poses(),
             "arrival": {"in_square": distance == 0.0, "distance_to_square": distance, "heading_error": error}
             if done < n
             else None,

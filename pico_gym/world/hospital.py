@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -242,7 +243,9 @@ def _rect_polygon(r: Rect) -> FloatArray:
     return np.array([(x0, y0), (x1, y0), (x1, y1), (x0, y1)], dtype=np.float64)
 
 
-def _hallway_legs(rng: np.random.Generator, cfg: HospitalConfig, shape: str) -> list[Rect]:
+def _hallway_legs(rng: np.random.Generator, cfg: HospitalConfig | Any, shape: str) -> list[Rect]:
+    """The hallway's legs: a straight one, and for an L a second one up from its far end (`cfg`:
+    any config with a `hallway_width_m` range)."""
     width = float(rng.uniform(*cfg.hallway_width_m))
     length = float(rng.uniform(6.0, 11.0))
     legs: list[Rect] = [(0.0, 0.0, length, width)]
@@ -374,16 +377,16 @@ def _try_generate(rng: np.random.Generator, cfg: HospitalConfig, robot: RobotCon
 
     # The start area: 1 x 1 m in the first hallway leg, away from the doors.
     x0, y0, x1, y1 = legs[0]
-    side = START_AREA_SIDE_M
+    area_side = START_AREA_SIDE_M
     start_area = None
     for _ in range(50):
-        if y1 - y0 >= side + 0.1:
-            sx = float(rng.uniform(x0 + 0.05, x1 - side - 0.05))
-            sy = float(rng.uniform(y0 + 0.05, y1 - side - 0.05))
+        if y1 - y0 >= area_side + 0.1:
+            sx = float(rng.uniform(x0 + 0.05, x1 - area_side - 0.05))
+            sy = float(rng.uniform(y0 + 0.05, y1 - area_side - 0.05))
         else:
-            sx = float(rng.uniform(x0 + 0.05, x1 - side - 0.05))
-            sy = 0.5 * (y0 + y1 - side)
-        area = (sx, sy, sx + side, sy + side)
+            sx = float(rng.uniform(x0 + 0.05, x1 - area_side - 0.05))
+            sy = 0.5 * (y0 + y1 - area_side)
+        area = (sx, sy, sx + area_side, sy + area_side)
         if not any(_overlaps(area, d, 0.3) for d in doors):
             start_area = area
             break

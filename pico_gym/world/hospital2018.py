@@ -131,7 +131,7 @@ def generate_explore_hospital(
 def _try_generate(rng: np.random.Generator, cfg: ExploreHospitalConfig) -> GeneratedExploreHospital | None:
     if cfg.layout == "default":
         shape = str(cfg.hallway_shapes[int(rng.integers(len(cfg.hallway_shapes)))])
-        legs = _hallway_legs(rng, cfg, shape)  # type: ignore[arg-type]  (reads hallway_width_m only)
+        legs = _hallway_legs(rng, cfg, shape)
         target = int(rng.integers(cfg.n_rooms[0], cfg.n_rooms[1] + 1))
         rooms, attach, row_of = row_rooms(rng, legs, target, cfg.room_side_m)
     else:

@@ -329,10 +329,10 @@ def map_from_dict(data: Any, source: Path | None = None) -> Map:
         sp = data["start_pose"]
         if not isinstance(sp, dict):
             raise _fail(where, "start_pose", f"expected {{'x', 'y', 'theta'}}, got {sp!r}")
-        for k in ("x", "y", "theta"):
-            if k not in sp:
-                raise _fail(where, "start_pose", f"missing key '{k}'")
-        start_pose = Pose(*(_number(sp[k], where, f"start_pose.{k}") for k in ("x", "y", "theta")))
+        for name in ("x", "y", "theta"):
+            if name not in sp:
+                raise _fail(where, "start_pose", f"missing key '{name}'")
+        start_pose = Pose(*(_number(sp[name], where, f"start_pose.{name}") for name in ("x", "y", "theta")))
 
     obstacles = []
     for k, ob in enumerate(data.get("obstacles", [])):
@@ -442,6 +442,8 @@ def _movers(value: Any, source: Path | None, where: Any) -> tuple[MoverRecord, .
 
 
 def _check_start_pose(world: Map, where: Any) -> None:
+    if world.start_pose is None:
+        return
     footprint = geometry.transform_points(world.start_pose, PICO_OUTLINE)
     solid = world.solid_segments()
     if geometry.polygon_clearance(footprint, solid) <= 0.0:

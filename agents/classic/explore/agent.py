@@ -95,6 +95,11 @@ class ExploreAgent(Agent):
         """The pose estimate, in the agent's frame."""
         return self.odometry.pose
 
+    def parking_wall(self) -> Wall:
+        """The parking wall (fitted, or assumed, by the end of the first look round)."""
+        assert self.wall is not None
+        return self.wall
+
     def belief(self) -> None:
         """No pose on a given map to report (the explore agent has no map frame to localise in)."""
         return None

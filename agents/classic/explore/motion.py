@@ -90,6 +90,7 @@ class Follower:
         if remaining < planner.best - 0.2:
             planner.best, planner.best_step = remaining, step
         elif step - planner.best_step > self._steps(self.config.give_up_s):
+            assert planner.goal is not None  # (progress is tracked towards a goal)
             planner.given_up.append(planner.goal.copy())
             planner.goal = None
             planner.path = []

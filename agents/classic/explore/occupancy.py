@@ -155,8 +155,8 @@ class OccupancyMap:
         self.view = (r0, r1, c0, c1)
         self.view_grid = Grid(p.x0 + c0 * p.resolution, p.y0 + r0 * p.resolution, p.resolution, (r1 - r0, c1 - c0))
         blocks = self.logodds[2 * r0 : 2 * r1, 2 * c0 : 2 * c1].reshape(r1 - r0, 2, c1 - c0, 2)
-        occupied = (blocks > cfg.occupied).any(axis=(1, 3))
-        free = (blocks.mean(axis=(1, 3)) < cfg.free) & ~occupied
+        occupied: np.ndarray = np.asarray((blocks > cfg.occupied).any(axis=(1, 3)))
+        free: np.ndarray = (blocks.mean(axis=(1, 3)) < cfg.free) & ~occupied
         self._coarse_step, self._coarse_cache = step, (occupied, free)
         return occupied, free
 

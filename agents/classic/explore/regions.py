@@ -147,7 +147,7 @@ def room_depths(
     n_rooms = int(rooms.max())
     node = np.where(rooms > 0, rooms, np.where(gaps > 0, gaps + n_rooms, 0))
     n = int(node.max()) + 1
-    links = [set() for _ in range(n)]
+    links: list[set[int]] = [set() for _ in range(n)]
     pairs = (
         (node[1:, :], node[:-1, :]),
         (node[:, 1:], node[:, :-1]),

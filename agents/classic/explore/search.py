@@ -80,6 +80,7 @@ class ObjectFinder:
         col = np.floor((wx - g.x0) / g.resolution).astype(np.int64)
         row = np.floor((wy - g.y0) / g.resolution).astype(np.int64)
         stored = self.stored
+        assert stored is not None  # (looked for only once a map is stored)
         n = stored.shape[0]
         ok = (row >= 2) & (row < n - 2) & (col >= 2) & (col < n - 2)
         row, col = row[ok], col[ok]
@@ -131,6 +132,7 @@ class ObjectFinder:
         of these (view) cells: the object is placed once the robot has parked."""
         r0, _, c0, _ = self.occupancy.view
         stored = self.stored
+        assert stored is not None  # (asked only once a map is stored)
         n = stored.shape[0]
         for r, c in cells:
             fr, fc = 2 * (r + r0), 2 * (c + c0)

@@ -114,8 +114,10 @@ def park(agent: ExploreAgent, ranges: FloatArray, near: FloatArray, odom: Pose, 
     """To the stand-off point in front of the parking wall; there, face away from it: REVERSE."""
     cfg = agent.config
     if not agent.at_standoff and (agent.state_steps == 1 or agent.planner.replan_due(agent.steps)):
-        agent.wall, agent.park_foot = parking_spot(agent.occupancy, agent.wall, agent.odometry.start, agent.motion, cfg)
-    point, normal = agent.wall
+        agent.wall, agent.park_foot = parking_spot(
+            agent.occupancy, agent.parking_wall(), agent.odometry.start, agent.motion, cfg
+        )
+    point, normal = agent.parking_wall()
     standoff = agent.park_foot + normal * cfg.park_standoff_m
     here = np.array([agent.pose.x, agent.pose.y])
     distance = float(np.linalg.norm(standoff - here))
@@ -168,7 +170,7 @@ def reverse(agent: ExploreAgent, ranges: FloatArray, near: FloatArray, odom: Pos
         # The map to store: as it is before the rear touches (the object is placed once the env
         # counts the robot parked, seconds before this agent is sure of the touch).
         agent.finder.before_touch = agent.occupancy.logodds.copy()
-    point, normal = agent.wall
+    point, normal = agent.parking_wall()
     heading = math.atan2(normal[1], normal[0])
     agent.reversed_m += max(-delta.x, 0.0)  # odometry says the robot moved back this much
     agent.reverse_log.append((agent.reversed_m, ranges[agent._front]))
@@ -228,7 +230,7 @@ def parked(agent: ExploreAgent, ranges: FloatArray, near: FloatArray, odom: Pose
         agent.planner.given_up.clear()
     if agent.state_steps > agent._steps(1.5):
         # Off the wall before anything turns (a turn against it swings a corner into it).
-        point, normal = agent.wall
+        point, normal = agent.parking_wall()
         gap = float((np.array([agent.pose.x, agent.pose.y]) - point) @ normal) - agent.motion.half_depth
         if gap > 0.25 or agent.state_steps > agent._steps(6.0):
             agent._go(State.SEARCH)
@@ -274,6 +276,7 @@ def approach(agent: ExploreAgent, ranges: FloatArray, near: FloatArray, odom: Po
     """To 0.6 m from the object by the planner; then face it and creep in until the LRF reads
     the stop range towards it: FOUND."""
     obj = agent.finder.object
+    assert obj is not None  # (APPROACH comes only with an object)
     pose = agent.pose
     here = np.array([pose.x, pose.y])
     distance = float(np.linalg.norm(obj - here))
@@ -300,6 +303,7 @@ def found(agent: ExploreAgent, ranges: FloatArray, near: FloatArray, odom: Pose,
     """Stand still; not counted within 5 s (a false object): give it up, SEARCH on."""
     if agent.state_steps > agent._steps(5.0):
         finder = agent.finder
+        assert finder.object is not None  # (FOUND comes only with an object)
         agent.planner.given_up.append(finder.object.copy())
         finder.evidence[:] = 0.0
         finder.object = None

@@ -76,6 +76,7 @@ class MapPose:
 
     def predict(self, odom: Pose) -> Pose:
         """The pose odometry predicts from the last one."""
+        assert self.odom_prev is not None  # (set by the step before)
         return compose(self.pose, compose(inverse(self.odom_prev), odom))
 
     def track(
