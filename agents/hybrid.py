@@ -95,34 +95,20 @@ class HybridConfig:
     escape_people: bool = True
 
     def __post_init__(self) -> None:
-        if not (isinstance(self.lookahead_m, (int, float)) and 0.1 <= self.lookahead_m <= 5.0):
-            raise ValueError(f"HybridConfig.lookahead_m must be in [0.1, 5] m, got {self.lookahead_m!r}")
-        if not isinstance(self.shield, bool):
-            raise ValueError(f"HybridConfig.shield must be true or false, got {self.shield!r}")
-        if not isinstance(self.blind_turn, bool):
-            raise ValueError(f"HybridConfig.blind_turn must be true or false, got {self.blind_turn!r}")
-        if not (isinstance(self.blind_near_m, (int, float)) and 0.0 <= self.blind_near_m <= 10.0):
-            raise ValueError(f"HybridConfig.blind_near_m must be in [0, 10] m, got {self.blind_near_m!r}")
-        if isinstance(self.dock_still_s, bool) or not (
-            isinstance(self.dock_still_s, (int, float)) and 0.0 <= self.dock_still_s <= 60.0
+        for name in ("shield", "blind_turn", "recover_turn", "escape_people", "blind_translation"):
+            if not isinstance(getattr(self, name), bool):
+                raise ValueError(f"HybridConfig.{name} must be true or false, got {getattr(self, name)!r}")
+        for name, lo, hi, unit in (
+            ("lookahead_m", 0.1, 5.0, " m"),
+            ("blind_near_m", 0.0, 10.0, " m"),
+            ("dock_still_s", 0.0, 60.0, " s"),
+            ("walk_in_mps", 0.0, 5.0, " m/s"),
+            ("back_budget_m", 0.0, 10.0, " m"),
+            ("blind_memory_s", 0.0, 10.0, " s"),
         ):
-            raise ValueError(f"HybridConfig.dock_still_s must be in [0, 60] s, got {self.dock_still_s!r}")
-        if not isinstance(self.recover_turn, bool):
-            raise ValueError(f"HybridConfig.recover_turn must be true or false, got {self.recover_turn!r}")
-        if isinstance(self.walk_in_mps, bool) or not (
-            isinstance(self.walk_in_mps, (int, float)) and 0.0 <= self.walk_in_mps <= 5.0
-        ):
-            raise ValueError(f"HybridConfig.walk_in_mps must be in [0, 5] m/s, got {self.walk_in_mps!r}")
-        if isinstance(self.back_budget_m, bool) or not (
-            isinstance(self.back_budget_m, (int, float)) and 0.0 <= self.back_budget_m <= 10.0
-        ):
-            raise ValueError(f"HybridConfig.back_budget_m must be in [0, 10] m, got {self.back_budget_m!r}")
-        if not isinstance(self.escape_people, bool):
-            raise ValueError(f"HybridConfig.escape_people must be true or false, got {self.escape_people!r}")
-        if not isinstance(self.blind_translation, bool):
-            raise ValueError(f"HybridConfig.blind_translation must be true or false, got {self.blind_translation!r}")
-        if not (isinstance(self.blind_memory_s, (int, float)) and 0.0 <= self.blind_memory_s <= 10.0):
-            raise ValueError(f"HybridConfig.blind_memory_s must be in [0, 10] s, got {self.blind_memory_s!r}")
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not lo <= value <= hi:
+                raise ValueError(f"HybridConfig.{name} must be in [{lo:g}, {hi:g}]{unit}, got {value!r}")
         if not (isinstance(self.fallback_after, int) and not isinstance(self.fallback_after, bool)) or not (
             0 <= self.fallback_after <= 100
         ):

@@ -59,7 +59,7 @@ _TRAJECTORY_ROOM = 256  # poses a robot keeps before they are handed to its env'
 
 
 @njit
-def _step_escape(
+def _step_escape(  # noqa: C901 (a compiled kernel, one loop nest: docs/compiled-twins.md)
     rows: np.ndarray,
     actions: FloatArray,
     ground: FloatArray,

@@ -15,7 +15,9 @@ from typing import Any
 import numpy as np
 
 from pico_gym.envs.base import pico_env
+from pico_gym.sensors.lrf import Lrf, LrfConfig, lrf_ranges
 from pico_gym.timing import EnvRun, interleaved, machine, median_rate, versions
+from pico_gym.types import Pose
 
 
 def clutter_scene(n_segments: int, seed: int = 0) -> np.ndarray:
@@ -32,15 +34,13 @@ def clutter_scene(n_segments: int, seed: int = 0) -> np.ndarray:
     return np.array(segs[:n_segments], dtype=np.float64)
 
 
-def free_poses(segments: np.ndarray, n: int, seed: int = 0, clearance_m: float = 0.3) -> list[Any]:
+def free_poses(segments: np.ndarray, n: int, seed: int = 0, clearance_m: float = 0.3) -> list[Pose]:
     """n poses uniform in a `clutter_scene` room (random headings), each at least `clearance_m`
     from every segment (so outside every box: a box's half side is at most 0.3 m)."""
-    from pico_gym.types import Pose
-
     rng = np.random.default_rng(seed)
     a, e = segments[:, :2], segments[:, 2:] - segments[:, :2]
     length_sq = np.maximum((e * e).sum(axis=1), 1e-300)
-    poses: list[Any] = []
+    poses: list[Pose] = []
     while len(poses) < n:
         p = rng.uniform(-4.9, 4.9, size=2)
         t = np.clip(((p - a) * e).sum(axis=1) / length_sq, 0.0, 1.0)
@@ -74,7 +74,6 @@ def bench_task(env_id: str, steps: int, seed: int, repeats: int) -> None:
     import gymnasium as gym
 
     from pico_gym.registry import task_info
-    from pico_gym.sensors.lrf import Lrf, LrfConfig
 
     info = task_info(env_id)
     print(f"machine : {machine()}")
@@ -129,15 +128,31 @@ def bench_lrf(repeats: int, seed: int, scans: int = 300) -> None:
     every step, noise included (`Lrf.scan` against f1tenth_gym's `scan()` as written), and the
     sensor moving through 64 free poses.
     """
+    lrf = Lrf(LrfConfig())
+    scenes = _lrf_scenes(seed)
+    _lrf_exact_rows(lrf, scenes, repeats, scans)
+    _lrf_noisy_rows(lrf, scenes, repeats, scans, seed)
+    _lrf_moving_rows(lrf, scenes, repeats, scans, seed)
+    noise_rng = np.random.default_rng(seed)
+    unit = np.empty(lrf.config.n_beams)
+
+    def draws() -> int:
+        for _ in range(scans):
+            noise_rng.random(out=unit)
+        return scans
+
+    median, _ = median_rate(draws, repeats)
+    print(f"{'noise draw (1000 uniforms)':<48} {median:9,.0f} draws/s")
+
+
+_LrfScene = tuple[str, np.ndarray, np.ndarray | None, Pose]
+
+
+def _lrf_scenes(seed: int) -> list[_LrfScene]:
+    """Rooms of 20 to 2000 segments, and the 2021 hospital as shipped."""
     import gymnasium as gym
 
-    from pico_gym.sensors.lrf import Lrf, LrfConfig, lrf_ranges
-    from pico_gym.sensors.raymarch import RayMarchScanner
-    from pico_gym.types import Pose
-    from pico_gym.world.segment_grid import GRID_MIN_SEGMENTS, SegmentGrid
-
-    lrf = Lrf(LrfConfig())
-    scenes: list[tuple[str, np.ndarray, np.ndarray | None, Pose]] = []
+    scenes: list[_LrfScene] = []
     for n in (20, 100, 400, 1000, 2000):
         scenes.append(
             (f"{n:>4} segments (10 x 10 m room with boxes)", clutter_scene(n, seed), None, Pose(0.1, 0.05, 0.3))
@@ -154,8 +169,14 @@ def bench_lrf(repeats: int, seed: int, scans: int = 300) -> None:
         )
     )
     env.close()
-    noise_rng = np.random.default_rng(seed)
-    unit = np.empty(lrf.config.n_beams)
+    return scenes
+
+
+def _lrf_exact_rows(lrf: Lrf, scenes: list[_LrfScene], repeats: int, scans: int) -> None:
+    """The exact cast: the env path, lrf_ranges on arrays and as the env scans, f1tenth's marcher."""
+    from pico_gym.sensors.raymarch import RayMarchScanner
+    from pico_gym.world.segment_grid import GRID_MIN_SEGMENTS, SegmentGrid
+
     print("LRF scans/s (1000 beams; f1tenth-style: 1080 beams, EDT ray marching on a 0.05 m raster)")
     print(f"{'':<48} {'':>9} {'lrf_ranges':>11} {'lrf_ranges':>11}")
     print(f"{'scene':<48} {'pico-gym':>9} {'(arrays)':>11} {'(as env)':>11} {'f1tenth':>9} {'ratio':>7}")
@@ -209,6 +230,11 @@ def bench_lrf(repeats: int, seed: int, scans: int = 300) -> None:
         + " ".join(f"{r:.2f}x" for _, r in pure_ratios)
     )
 
+
+def _lrf_noisy_rows(lrf: Lrf, scenes: list[_LrfScene], repeats: int, scans: int, seed: int) -> None:
+    from pico_gym.sensors.raymarch import RayMarchScanner
+    from pico_gym.world.segment_grid import GRID_MIN_SEGMENTS, SegmentGrid
+
     # The whole sensor as each env takes it on every step, noise included: pico-gym's `Lrf.scan`
     # (the cast, 1000 uniform draws, the noise model, float32 ranges) against f1tenth_gym's
     # `ScanSimulator2D.scan` as written (its lookup rotates into the image frame, a new array per
@@ -236,6 +262,11 @@ def bench_lrf(repeats: int, seed: int, scans: int = 300) -> None:
         a, c = interleaved([ours_noisy, theirs_noisy], repeats)
         ratio = statistics.median(x / y for x, y in zip(a, c, strict=True))
         print(f"{label:<48} {statistics.median(a):9,.0f} {'':>11} {'':>11} {statistics.median(c):9,.0f} {ratio:6.2f}x")
+
+
+def _lrf_moving_rows(lrf: Lrf, scenes: list[_LrfScene], repeats: int, scans: int, seed: int) -> None:
+    from pico_gym.sensors.raymarch import RayMarchScanner
+    from pico_gym.world.segment_grid import GRID_MIN_SEGMENTS, SegmentGrid
 
     # A moving robot: every scan from another place. (The rows above scan one pose over and over:
     # the same scan each time, whose branches the CPU's predictors can learn, both scanners'.)
@@ -265,14 +296,6 @@ def bench_lrf(repeats: int, seed: int, scans: int = 300) -> None:
         a, c = interleaved([ours_moving, theirs_moving], repeats)
         ratio = statistics.median(x / y for x, y in zip(a, c, strict=True))
         print(f"{label:<48} {statistics.median(a):9,.0f} {'':>11} {'':>11} {statistics.median(c):9,.0f} {ratio:6.2f}x")
-
-    def draws() -> int:
-        for _ in range(scans):
-            noise_rng.random(out=unit)
-        return scans
-
-    median, _ = median_rate(draws, repeats)
-    print(f"{'noise draw (1000 uniforms)':<48} {median:9,.0f} draws/s")
 
 
 def bench_escape(steps: int, seed: int, repeats: int) -> None:

@@ -299,27 +299,15 @@ class PicoVectorEnv(VectorEnv):
         values = np.zeros((N_INFO, n))  # the kernel's info values: one row per value
         patches: dict[int, dict[str, Any]] = {}
         next_step = self.autoreset_mode == AutoresetMode.NEXT_STEP
-        others: list[int] = []
+        others: list[int]
         # (count_nonzero: a fifth of what any() and all() cost on arrays this small)
         everyone = not np.count_nonzero(self._autoreset) and np.count_nonzero(batch.live) == n
         if everyone:
-            rows = self._all  # the common step: every robot in the batch
+            rows, others = self._all, []  # the common step: every robot in the batch
         else:
-            stepping = np.ones(n, dtype=np.bool_)
-            for i in range(n):
-                if next_step and self._autoreset[i]:  # this step resets it (and steps it not)
-                    obs, patches[i] = envs[i].reset(seed=self.autoreset_seed(i))
-                    scans[i], odom[i] = obs["lrf"], obs["odom"]
-                    self._autoreset[i] = False
-                    batch.sync_in(i)
-                    stepping[i] = False
-                    continue
-                batch.sync_in(i)  # (if its env is ahead of its row)
-                if not batch.live[i]:
-                    others.append(i)
-            rows = np.flatnonzero(batch.live & stepping)
+            rows, others = self._rows_to_batch(scans, odom, patches, next_step)
         final: Finals = {}
-        ends, motions = batch.ends, batch.motions
+        ends = batch.ends
         events: list[int] = []
         if len(rows):
             batch.prepare(rows, everyone)
@@ -331,25 +319,7 @@ class PicoVectorEnv(VectorEnv):
             ends[others] = 0  # not stepped by the batch: no verdict of its (a row may hold an old one)
         for i in events + others:
             env = envs[i]
-            code = int(ends[i, 0])
-            if code > 0 or ends[i, 1]:  # the episode ended in the batch
-                batch.sync_out(i)
-                terms = dict(zip(REWARD_TERMS, values[10:16, i].tolist(), strict=True))
-                reason = REASONS[code] if code > 0 else None
-                reason = "timeout" if reason is None else reason
-                patches[i] = env.end_stepped_elsewhere(terms, reason, bool(ends[i, 2]), float(values[16, i]))
-            else:
-                if code < 0:  # a contact is possible: the physics steps it, in the robot's own env
-                    batch.sync_out(i)
-                    moved = env.apply_motion(tuple(motions[i].tolist()), _NO_EXTRAS)
-                    scans[i] = env.lrf.read(*_scan_args(env), batch.unit_row(i), *_scan_extras(env))
-                    ends[i] = 0
-                else:  # not the batch's: as `step_each` steps it
-                    moved = env.begin_step(actions[i])
-                    scans[i] = env.lrf.scan(*_scan_args(env), env.np_random, *_scan_extras(env))
-                env.take_scan(scans[i])
-                obs, rewards[i], terminated[i], truncated[i], patches[i] = env.finish_step(moved)
-                odom[i] = obs["odom"]
+            self._finish_outside(i, actions, scans, odom, values, rewards, terminated, truncated, patches)
             if (terminated[i] or truncated[i]) and not next_step:
                 final[i] = ({"lrf": scans[i].copy(), "odom": odom[i].copy()}, patches[i])
                 obs, patches[i] = env.reset(seed=self.autoreset_seed(i))
@@ -365,6 +335,67 @@ class PicoVectorEnv(VectorEnv):
             assert kernel is not None
             batched = self._batch_infos([patches[i] if i in patches else _row(kernel, i) for i in range(n)])
         return {"lrf": scans, "odom": odom}, rewards, terminated, truncated, batched, final
+
+    def _rows_to_batch(
+        self, scans: np.ndarray, odom: np.ndarray, patches: dict[int, dict[str, Any]], next_step: bool
+    ) -> tuple[np.ndarray, list[int]]:
+        """Before a step where not every robot is the batch's: resets the robots this step resets
+        (NEXT_STEP mode), brings rows up to their envs; (rows the batch steps, robots it does not)."""
+        batch, envs = self._batch, self._envs
+        assert batch is not None
+        n = self.num_envs
+        stepping = np.ones(n, dtype=np.bool_)
+        others: list[int] = []
+        for i in range(n):
+            if next_step and self._autoreset[i]:  # this step resets it (and steps it not)
+                obs, patches[i] = envs[i].reset(seed=self.autoreset_seed(i))
+                scans[i], odom[i] = obs["lrf"], obs["odom"]
+                self._autoreset[i] = False
+                batch.sync_in(i)
+                stepping[i] = False
+                continue
+            batch.sync_in(i)  # (if its env is ahead of its row)
+            if not batch.live[i]:
+                others.append(i)
+        return np.flatnonzero(batch.live & stepping), others
+
+    def _finish_outside(
+        self,
+        i: int,
+        actions: np.ndarray,
+        scans: np.ndarray,
+        odom: np.ndarray,
+        values: np.ndarray,
+        rewards: np.ndarray,
+        terminated: np.ndarray,
+        truncated: np.ndarray,
+        patches: dict[int, dict[str, Any]],
+    ) -> None:
+        """Robot i's step where the batch did not finish it: an episode the batch ended, a
+        possible contact (the physics steps it, in the robot's own env), or a robot not the batch's."""
+        batch = self._batch
+        assert batch is not None
+        env = self._envs[i]
+        ends = batch.ends
+        code = int(ends[i, 0])
+        if code > 0 or ends[i, 1]:  # the episode ended in the batch
+            batch.sync_out(i)
+            terms = dict(zip(REWARD_TERMS, values[10:16, i].tolist(), strict=True))
+            reason = REASONS[code] if code > 0 else None
+            reason = "timeout" if reason is None else reason
+            patches[i] = env.end_stepped_elsewhere(terms, reason, bool(ends[i, 2]), float(values[16, i]))
+            return
+        if code < 0:  # a contact is possible: the physics steps it, in the robot's own env
+            batch.sync_out(i)
+            moved = env.apply_motion(tuple(batch.motions[i].tolist()), _NO_EXTRAS)
+            scans[i] = env.lrf.read(*_scan_args(env), batch.unit_row(i), *_scan_extras(env))
+            ends[i] = 0
+        else:  # not the batch's: as `step_each` steps it
+            moved = env.begin_step(actions[i])
+            scans[i] = env.lrf.scan(*_scan_args(env), env.np_random, *_scan_extras(env))
+        env.take_scan(scans[i])
+        obs, rewards[i], terminated[i], truncated[i], patches[i] = env.finish_step(moved)
+        odom[i] = obs["odom"]
 
     def step_each(
         self, actions: np.ndarray

@@ -450,7 +450,7 @@ def test_behaviour_cloning_labels_the_announcement_where_the_robot_stands(tmp_pa
 @pytest.mark.parametrize(
     "extra,match",
     [
-        ("  bc_announce: sometimes\n", "bc_announce must be 'teacher' or 'arrival'"),
+        ("  bc_announce: sometimes\n", r"bc_announce must be one of \('teacher', 'arrival'\), got 'sometimes'"),
         ("  bc_announce: arrival\n", "needs arrival: announce"),
     ],
 )

@@ -27,6 +27,9 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from pico_gym.timing import interleaved, machine, versions
+from pico_gym.train.config import TrainConfig
+
 DEFAULT_CONFIG = Path(__file__).parent / "configs" / "ppo_escape.yaml"
 
 
@@ -95,14 +98,8 @@ def _ppo(config: Any, vec_env: Any, seed: int) -> Any:
 
 def cmd_bench_train(args: argparse.Namespace) -> int:
     import torch
-    from stable_baselines3.common.vec_env import DummyVecEnv
 
-    from pico_gym.envs.base import pico_env
-    from pico_gym.timing import interleaved, machine, versions
-    from pico_gym.train.config import ConfigError, check_vector, load_config
-    from pico_gym.train.envs import EpisodeSeeds, make_training_env, make_training_vec_env, train_env_kwargs
-    from pico_gym.train.sb3_vec import PicoSB3VecEnv
-    from pico_gym.wrappers import PicoLearningWrapper
+    from pico_gym.train.config import load_config
 
     config = load_config(args.config)
     torch.set_num_threads(int(config.pico["torch_threads"]))
@@ -113,8 +110,23 @@ def cmd_bench_train(args: argparse.Namespace) -> int:
         f"method  : {args.rounds} interleaved rounds, medians; PPO as in {Path(args.config).name} "
         f"({n_envs} envs, {per_round:,} steps a round = {args.rollouts} rollouts)\n"
     )
+    _ppo_rows(config, args, per_round)
+    rng = np.random.default_rng(args.seed)
+    low, high = _wrapper_row(config, args, rng)
+    _vec_rows(config, args, rng, low, high)
+    return 0
 
-    # pico-gym train's two in-process paths: DummyVecEnv over wrapped envs, and the vector env.
+
+def _ppo_rows(config: TrainConfig, args: argparse.Namespace, per_round: int) -> None:
+    """PPO's fps on pico-gym train's two in-process paths (DummyVecEnv over wrapped envs, and the
+    vector env) against a toy env, and the env side's share of a step."""
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    from pico_gym.train.config import ConfigError, check_vector
+    from pico_gym.train.envs import make_training_vec_env
+
+    n_envs = int(config.zoo["n_envs"])
+
     paths = {"dummy": replace(config, pico={**config.pico, "vec_env": "dummy"})}
     vector = replace(config, pico={**config.pico, "vec_env": "vector"})
     try:
@@ -161,7 +173,16 @@ def cmd_bench_train(args: argparse.Namespace) -> int:
     for v in pico_vecs.values():
         v.close()
 
-    # The learning wrapper's cost per step: a wrapped env against the same bare env.
+
+def _wrapper_row(
+    config: TrainConfig, args: argparse.Namespace, rng: np.random.Generator
+) -> tuple[np.ndarray, np.ndarray]:
+    """The learning wrapper's cost per step: a wrapped env against the same bare env; the action
+    bounds (for the next rows)."""
+    from pico_gym.envs.base import pico_env
+    from pico_gym.train.envs import EpisodeSeeds, make_training_env, train_env_kwargs
+    from pico_gym.wrappers import PicoLearningWrapper
+
     steps = 5000
     # The same chain without the learning wrapper and the Monitor: the same rooms (episode seeds
     # from the same generator) and the same actions, so both reset as often.
@@ -169,7 +190,6 @@ def cmd_bench_train(args: argparse.Namespace) -> int:
     bare = EpisodeSeeds(gym.make(config.env_id, **train_env_kwargs(config, 0)), np.random.default_rng(args.seed))
     wrapped.reset(seed=args.seed)
     bare.reset(seed=args.seed)
-    rng = np.random.default_rng(args.seed)
     unit_actions = rng.uniform(-1.0, 1.0, size=(steps, 3)).astype(np.float32)
     box = pico_env(bare).action_space
     low, high = box.low, box.high
@@ -193,7 +213,19 @@ def cmd_bench_train(args: argparse.Namespace) -> int:
         f"   {tax_us:.1f} us a step over the env's {statistics.median(bare_rate):,.0f} steps/s (the wrapper tax)"
     )
 
-    # Stepping only, raw observations: DummyVecEnv over single envs against the vector env.
+    return low, high
+
+
+def _vec_rows(
+    config: Any, args: argparse.Namespace, rng: np.random.Generator, low: np.ndarray, high: np.ndarray
+) -> None:
+    """Stepping only, raw observations: DummyVecEnv over single envs against the vector env."""
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    from pico_gym.train.sb3_vec import PicoSB3VecEnv
+
+    n_envs = int(config.zoo["n_envs"])
+    steps = 5000
     dummy = DummyVecEnv([lambda: gym.make(config.env_id) for _ in range(n_envs)])
     ours = PicoSB3VecEnv(config.env_id, n_envs)
     for venv in (dummy, ours):
@@ -212,7 +244,6 @@ def cmd_bench_train(args: argparse.Namespace) -> int:
     dummy_rate, ours_rate = interleaved([vec_stepping(dummy), vec_stepping(ours)], args.rounds)
     _row(f"SB3 DummyVecEnv, {n_envs} envs, raw observations", dummy_rate, "steps/s")
     _row(f"PicoSB3VecEnv (pico-gym vector env), {n_envs} envs", ours_rate, "steps/s", ("DummyVecEnv", dummy_rate))
-    return 0
 
 
 def _chain(env: gym.Env) -> list[gym.Env]:

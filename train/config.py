@@ -10,6 +10,7 @@ with evaluation seeds (EVAL_SEED_START.., and the < 1e6 seeds of bench and compa
 
 from __future__ import annotations
 
+import ast
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -117,46 +118,13 @@ def load_config(path: str | Path, env_id: str | None = None) -> TrainConfig:
         raise ConfigError(f"no training config at {path}") from None
     except yaml.YAMLError as exc:
         raise ConfigError(f"{path}: not valid YAML ({exc})") from None
-    if env_id is None and isinstance(data, dict):
-        blocks = [k for k in data if k not in (PICO_KEY, "run")]
-        if len(blocks) != 1:
-            raise ConfigError(f"{path}: expected one env block (rl-zoo3 layout, e.g. 'PicoEscape-v0:'), got {blocks}")
-        env_id = str(blocks[0])
-        if env_id not in gym.registry:
-            known = ", ".join(k for k in gym.registry if k.startswith("Pico"))
-            raise ConfigError(f"{path}: {env_id!r} is not a registered env id (pico-gym's: {known})")
-    if not isinstance(data, dict) or env_id not in data:
-        raise ConfigError(f"{path}: no block for {env_id!r} (rl-zoo3 layout: a top-level key per env id)")
+    env_id = _env_block(data, path, env_id)
     zoo = dict(data[env_id])
     for key in ("n_envs", "n_timesteps", "policy", "env_wrapper"):
         if key not in zoo:
             raise ConfigError(f"{path}: {env_id}.{key} is missing")
-    pico = dict(PICO_DEFAULTS)
-    unknown = set(data.get(PICO_KEY) or {}) - set(PICO_DEFAULTS)
-    if unknown:
-        raise ConfigError(f"{path}: unknown key(s) {sorted(unknown)} in {PICO_KEY}; known: {sorted(PICO_DEFAULTS)}")
-    pico.update(data.get(PICO_KEY) or {})
-    if pico["agent"] not in POLICY_AGENTS:
-        raise ConfigError(f"{path}: {PICO_KEY}.agent must be one of {POLICY_AGENTS}, got {pico['agent']!r}")
-    if pico["bc_announce"] not in ("teacher", "arrival"):
-        raise ConfigError(f"{path}: {PICO_KEY}.bc_announce must be 'teacher' or 'arrival', got {pico['bc_announce']!r}")
-    arrival = {**(pico["env_kwargs"] or {}), **(pico["train_env_kwargs"] or {})}.get("arrival", "dwell")
-    if pico["bc_announce"] == "arrival" and arrival != "announce":
-        raise ConfigError(
-            f"{path}: {PICO_KEY}.bc_announce 'arrival' labels the announcement, so the env needs arrival: announce "
-            f"(got {arrival!r})"
-        )
-    if pico["point_goal_source"] not in POINT_GOAL_SOURCES:
-        raise ConfigError(
-            f"{path}: {PICO_KEY}.point_goal_source must be one of {POINT_GOAL_SOURCES}, "
-            f"got {pico['point_goal_source']!r}"
-        )
-    if pico["vec_env"] not in VEC_ENVS:
-        raise ConfigError(f"{path}: {PICO_KEY}.vec_env must be one of {VEC_ENVS}, got {pico['vec_env']!r}")
-    variants = pico["train_env_variants"]
-    if not isinstance(variants, list) or not all(isinstance(v, dict) for v in variants):
-        raise ConfigError(f"{path}: {PICO_KEY}.train_env_variants must be a list of env kwargs dicts, got {variants!r}")
-    config = TrainConfig(str(env_id), zoo, pico, str(path))
+    pico = _pico_block(data, path)
+    config = TrainConfig(env_id, zoo, pico, str(path))
     if zoo["policy"] == MIRROR_POLICY and zoo.get("normalize"):
         raise ConfigError(f"{path}: {env_id}.policy {MIRROR_POLICY} reflects the raw input: it cannot take normalize")
     if config.learning.point_goal and pico["agent"] != "hybrid":
@@ -171,6 +139,48 @@ def load_config(path: str | Path, env_id: str | None = None) -> TrainConfig:
         check_vector(config)
     config.learning  # noqa: B018  (validates the wrapper entry now, not after minutes of setup)
     return config
+
+
+def _env_block(data: Any, path: Path, env_id: str | None) -> str:
+    """The env block's key: `env_id`, or the file's only block besides `pico-gym:` (and `run:`)."""
+    if env_id is None and isinstance(data, dict):
+        blocks = [k for k in data if k not in (PICO_KEY, "run")]
+        if len(blocks) != 1:
+            raise ConfigError(f"{path}: expected one env block (rl-zoo3 layout, e.g. 'PicoEscape-v0:'), got {blocks}")
+        env_id = str(blocks[0])
+        if env_id not in gym.registry:
+            known = ", ".join(k for k in gym.registry if k.startswith("Pico"))
+            raise ConfigError(f"{path}: {env_id!r} is not a registered env id (pico-gym's: {known})")
+    if not isinstance(data, dict) or env_id not in data:
+        raise ConfigError(f"{path}: no block for {env_id!r} (rl-zoo3 layout: a top-level key per env id)")
+    return str(env_id)
+
+
+def _pico_block(data: dict[str, Any], path: Path) -> dict[str, Any]:
+    """The `pico-gym:` block with its defaults filled in, each choice checked."""
+    pico = dict(PICO_DEFAULTS)
+    unknown = set(data.get(PICO_KEY) or {}) - set(PICO_DEFAULTS)
+    if unknown:
+        raise ConfigError(f"{path}: unknown key(s) {sorted(unknown)} in {PICO_KEY}; known: {sorted(PICO_DEFAULTS)}")
+    pico.update(data.get(PICO_KEY) or {})
+    for key, allowed in (
+        ("agent", POLICY_AGENTS),
+        ("bc_announce", ("teacher", "arrival")),
+        ("point_goal_source", POINT_GOAL_SOURCES),
+        ("vec_env", VEC_ENVS),
+    ):
+        if pico[key] not in allowed:
+            raise ConfigError(f"{path}: {PICO_KEY}.{key} must be one of {allowed}, got {pico[key]!r}")
+    arrival = {**(pico["env_kwargs"] or {}), **(pico["train_env_kwargs"] or {})}.get("arrival", "dwell")
+    if pico["bc_announce"] == "arrival" and arrival != "announce":
+        raise ConfigError(
+            f"{path}: {PICO_KEY}.bc_announce 'arrival' labels the announcement, so the env needs arrival: announce "
+            f"(got {arrival!r})"
+        )
+    variants = pico["train_env_variants"]
+    if not isinstance(variants, list) or not all(isinstance(v, dict) for v in variants):
+        raise ConfigError(f"{path}: {PICO_KEY}.train_env_variants must be a list of env kwargs dicts, got {variants!r}")
+    return pico
 
 
 def check_vector(config: TrainConfig) -> None:
@@ -201,42 +211,56 @@ def parse_policy_kwargs(text: str | dict[str, Any] | None, source: str) -> dict[
         return {}
     if isinstance(text, dict):
         return text
-    import ast
-
-    def value(node: ast.AST) -> Any:
-        if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "dict" and not node.args:
-            return {kw.arg: value(kw.value) for kw in node.keywords if kw.arg is not None}
-        if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) and node.value.id == "nn":
-            if node.attr not in ACTIVATIONS:
-                raise ValueError(f"nn.{node.attr} is not one of the allowed activations {ACTIVATIONS}")
-            import torch
-
-            return getattr(torch.nn, node.attr)
-        if isinstance(node, ast.Dict):
-            if any(k is None for k in node.keys):
-                raise ValueError("a ** inside a dict is not data")
-            return {value(k): value(v) for k, v in zip(node.keys, node.values, strict=True)}  # type: ignore[arg-type]
-        if isinstance(node, (ast.List, ast.Tuple)):
-            items = [value(e) for e in node.elts]
-            return items if isinstance(node, ast.List) else tuple(items)
-        if isinstance(node, ast.Constant):
-            return node.value
-        if (
-            isinstance(node, ast.UnaryOp)
-            and isinstance(node.op, ast.USub)
-            and isinstance(node.operand, ast.Constant)
-            and isinstance(node.operand.value, (int, float))
-        ):
-            return -node.operand.value
-        raise ValueError(f"{ast.unparse(node)!r} is not data (literals, dict(...), nn.<Activation>)")
-
     try:
-        parsed = value(ast.parse(text, mode="eval").body)
+        parsed = _data(ast.parse(text, mode="eval").body)
     except (SyntaxError, ValueError) as exc:
         raise ConfigError(f"{source}: policy_kwargs {text!r}: {exc}") from None
     if not isinstance(parsed, dict):
         raise ConfigError(f"{source}: policy_kwargs must give a dict, got {parsed!r}")
     return parsed
+
+
+def _not_data(node: ast.AST) -> ValueError:
+    return ValueError(f"{ast.unparse(node)!r} is not data (literals, dict(...), nn.<Activation>)")
+
+
+def _data(node: ast.AST) -> Any:
+    """A node of a policy_kwargs expression as data: literals, `dict(key=value, ...)`,
+    `nn.<Activation>`; ValueError for anything else."""
+    if isinstance(node, ast.Call):
+        if isinstance(node.func, ast.Name) and node.func.id == "dict" and not node.args:
+            return {kw.arg: _data(kw.value) for kw in node.keywords if kw.arg is not None}
+        raise _not_data(node)
+    if isinstance(node, ast.Attribute):
+        return _activation(node)
+    if isinstance(node, ast.Dict):
+        if any(k is None for k in node.keys):
+            raise ValueError("a ** inside a dict is not data")
+        return {_data(k): _data(v) for k, v in zip(node.keys, node.values, strict=True)}  # type: ignore[arg-type]
+    if isinstance(node, (ast.List, ast.Tuple)):
+        items = [_data(e) for e in node.elts]
+        return items if isinstance(node, ast.List) else tuple(items)
+    if isinstance(node, ast.Constant):
+        return node.value
+    if (
+        isinstance(node, ast.UnaryOp)
+        and isinstance(node.op, ast.USub)
+        and isinstance(node.operand, ast.Constant)
+        and isinstance(node.operand.value, (int, float))
+    ):
+        return -node.operand.value
+    raise _not_data(node)
+
+
+def _activation(node: ast.Attribute) -> Any:
+    """`nn.<Activation>`: one of ACTIVATIONS, as torch's class."""
+    if not (isinstance(node.value, ast.Name) and node.value.id == "nn"):
+        raise _not_data(node)
+    if node.attr not in ACTIVATIONS:
+        raise ValueError(f"nn.{node.attr} is not one of the allowed activations {ACTIVATIONS}")
+    import torch
+
+    return getattr(torch.nn, node.attr)
 
 
 def normalize_kwargs(value: Any, source: str) -> dict[str, Any] | None:

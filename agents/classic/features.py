@@ -183,32 +183,7 @@ def find_exits(
         d = _direction(seg)
         normal = np.array([-d[1], d[0]])
         for end_point, outward_dir in ((seg[:2], -d), (seg[2:], d)):
-            candidates: list[tuple[FloatArray, float]] = []
-            for j, other in enumerate(segs):
-                # (the far side may be a short piece: the rest of that wall can be out of view)
-                if j == k:
-                    continue
-                e = _direction(other)
-                if math.acos(min(1.0, abs(float(d @ e)))) < COLLINEAR_ANGLE_RAD:
-                    # The same wall continuing after the gap: its near end along the line.
-                    offsets = [(p - seg[:2]) @ normal for p in (other[:2], other[2:])]
-                    if max(abs(o) for o in offsets) > COLLINEAR_OFFSET_M:
-                        continue
-                    along = [float((p - end_point) @ outward_dir) for p in (other[:2], other[2:])]
-                    near = min(along)
-                    if near > 0:
-                        candidates.append((end_point + near * outward_dir, float(lengths[j])))
-                else:
-                    # A wall crossing the line beyond the gap (exit flush with a corner).
-                    c = _line_intersection(end_point, outward_dir, other[:2], e)
-                    # (a wall through the end point itself is this wall's own corner)
-                    if c is None or float((c - end_point) @ outward_dir) < 0.5 * EXIT_WIDTH_M[0]:
-                        continue
-                    t = float((c - other[:2]) @ e)
-                    length = float(np.linalg.norm(other[2:] - other[:2]))
-                    if -0.15 <= t <= length + 0.15:
-                        # flush with a corner: the wall with the gap is this line itself
-                        candidates.append((c, 0.0))
+            candidates = _far_edges(segs, lengths, k, end_point, outward_dir)
             if not candidates:
                 continue
             far_point, far_length = min(candidates, key=lambda pc: float(np.linalg.norm(pc[0] - end_point)))
@@ -224,6 +199,42 @@ def find_exits(
             outward = normal if float(centre @ normal) > 0 else -normal
             exits.append(Exit(end_point.copy(), far_point, outward, n_through))
     return _dedupe(exits)
+
+
+def _far_edges(
+    segs: np.ndarray, lengths: np.ndarray, k: int, end_point: FloatArray, outward_dir: FloatArray
+) -> list[tuple[FloatArray, float]]:
+    """Where a gap past `end_point` of line k could close: (point, length of the wall there)."""
+    seg = segs[k]
+    d = _direction(seg)
+    normal = np.array([-d[1], d[0]])
+    candidates: list[tuple[FloatArray, float]] = []
+    for j, other in enumerate(segs):
+        # (the far side may be a short piece: the rest of that wall can be out of view)
+        if j == k:
+            continue
+        e = _direction(other)
+        if math.acos(min(1.0, abs(float(d @ e)))) < COLLINEAR_ANGLE_RAD:
+            # The same wall continuing after the gap: its near end along the line.
+            offsets = [(p - seg[:2]) @ normal for p in (other[:2], other[2:])]
+            if max(abs(o) for o in offsets) > COLLINEAR_OFFSET_M:
+                continue
+            along = [float((p - end_point) @ outward_dir) for p in (other[:2], other[2:])]
+            near = min(along)
+            if near > 0:
+                candidates.append((end_point + near * outward_dir, float(lengths[j])))
+        else:
+            # A wall crossing the line beyond the gap (exit flush with a corner).
+            c = _line_intersection(end_point, outward_dir, other[:2], e)
+            # (a wall through the end point itself is this wall's own corner)
+            if c is None or float((c - end_point) @ outward_dir) < 0.5 * EXIT_WIDTH_M[0]:
+                continue
+            t = float((c - other[:2]) @ e)
+            length = float(np.linalg.norm(other[2:] - other[:2]))
+            if -0.15 <= t <= length + 0.15:
+                # flush with a corner: the wall with the gap is this line itself
+                candidates.append((c, 0.0))
+    return candidates
 
 
 def _dedupe(exits: list[Exit]) -> list[Exit]:

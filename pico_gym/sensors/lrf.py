@@ -613,6 +613,18 @@ def lrf_ranges(
                     return buffer
         except TypeError:
             pass
+    return _checked_ranges(pose, segments, beam_angles, max_range, one_sided, out)
+
+
+def _checked_ranges(
+    pose: Pose,
+    segments: Segments | SegmentGrid,
+    beam_angles: FloatArray,
+    max_range: float,
+    one_sided: np.ndarray | None,
+    out: FloatArray | None,
+) -> FloatArray:
+    """`lrf_ranges` past its fast path: every argument checked, the beams and grid looked up."""
     if not (type(beam_angles) is np.ndarray and beam_angles.dtype.char == "d" and beam_angles.ndim == 1):
         beam_angles = np.ascontiguousarray(beam_angles, dtype=np.float64).reshape(-1)
     if out is None:
@@ -637,6 +649,20 @@ def lrf_ranges(
         cos, sin = _beams(beam_angles)
         segments.cast(x, y, th, cos, sin, max_range, out)
         return out
+    segments, flags = _checked_segments(segments, one_sided)
+    if len(segments) < GRID_MIN_SEGMENTS:
+        cos, sin = _beams(beam_angles)
+        if _cast(x, y, th, segments, beam_angles, cos, sin, max_range, out, True, flags):
+            _no_hit_to_inf(out, max_range)
+        return out
+    grid = _GRIDS.get((segments, flags), lambda: SegmentGrid(segments, flags))
+    cos, sin = _beams(beam_angles)
+    grid.cast(x, y, th, cos, sin, max_range, out)
+    return out
+
+
+def _checked_segments(segments: Segments, one_sided: np.ndarray | None) -> tuple[Segments, np.ndarray]:
+    """(N, 4) contiguous float64 finite segments and their one-sided flags (empty: none), or ValueError."""
     if not (
         type(segments) is np.ndarray
         and segments.dtype.char == "d"
@@ -653,15 +679,7 @@ def lrf_ranges(
     flags = _NO_FLAGS if one_sided is None else np.ascontiguousarray(one_sided, dtype=np.bool_).reshape(-1)
     if flags.size not in (0, len(segments)):
         raise ValueError(f"one_sided must hold one flag per segment ({len(segments)}), got {flags.size}")
-    if len(segments) < GRID_MIN_SEGMENTS:
-        cos, sin = _beams(beam_angles)
-        if _cast(x, y, th, segments, beam_angles, cos, sin, max_range, out, True, flags):
-            _no_hit_to_inf(out, max_range)
-        return out
-    grid = _GRIDS.get((segments, flags), lambda: SegmentGrid(segments, flags))
-    cos, sin = _beams(beam_angles)
-    grid.cast(x, y, th, cos, sin, max_range, out)
-    return out
+    return segments, flags
 
 
 class Lrf:

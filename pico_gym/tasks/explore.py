@@ -290,24 +290,37 @@ def building_of(world: Map, inside: tuple[float, float], resolution: float) -> B
     """The free area reachable from the point `inside`, and its rooms (`Building`)."""
     grid, free, clearance = free_space_of(world, inside, resolution)
     doors = [world.polygon(d) for d in world.doors]
-    if doors:
-        door_segments = np.vstack([geometry.polygon_to_segments(p) for p in doors])
-        door_clearance = clearance_grid(grid, door_segments, cap=1.5)
-        xs, ys = grid.centres()
-        in_door = door_clearance <= resolution + 1e-6
-        for poly in doors:
-            lo, hi = poly.min(axis=0), poly.max(axis=0)
-            box = (xs >= lo[0]) & (xs <= hi[0]) & (ys >= lo[1]) & (ys <= hi[1])
-            for r, c in np.argwhere(box):
-                if geometry.point_in_polygon(float(xs[r, c]), float(ys[r, c]), poly):
-                    in_door[r, c] = True
-    else:
-        door_clearance = np.full(grid.shape, 1.5)
-        in_door = np.zeros(grid.shape, dtype=bool)
+    door_clearance, in_door = _door_cells(grid, doors)
     region = np.where(free, -1, -2).astype(np.int32)
-    open_cells = free & ~in_door
+    components = _open_components(grid, free & ~in_door, _cell(grid, *inside))
+    for k, comp in enumerate(components):
+        region[comp] = k
+    counts = np.array([int(c.sum()) for c in components], dtype=np.int64)
+    depth = _door_depths(grid, region, doors, len(components))
+    return Building(grid, region, counts, depth, clearance, door_clearance, inside)
+
+
+def _door_cells(grid: Grid, doors: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """Each cell's clearance to the nearest door, and which cells a doorway covers."""
+    if not doors:
+        return np.full(grid.shape, 1.5), np.zeros(grid.shape, dtype=bool)
+    resolution = grid.resolution
+    door_segments = np.vstack([geometry.polygon_to_segments(p) for p in doors])
+    door_clearance = clearance_grid(grid, door_segments, cap=1.5)
+    xs, ys = grid.centres()
+    in_door = door_clearance <= resolution + 1e-6
+    for poly in doors:
+        lo, hi = poly.min(axis=0), poly.max(axis=0)
+        box = (xs >= lo[0]) & (xs <= hi[0]) & (ys >= lo[1]) & (ys <= hi[1])
+        for r, c in np.argwhere(box):
+            if geometry.point_in_polygon(float(xs[r, c]), float(ys[r, c]), poly):
+                in_door[r, c] = True
+    return door_clearance, in_door
+
+
+def _open_components(grid: Grid, open_cells: np.ndarray, start_cell: tuple[int, int]) -> list[np.ndarray]:
+    """The rooms: connected open areas, the start's first; specks below MIN_REGION_CELLS dropped."""
     labelled = np.zeros(grid.shape, dtype=bool)
-    start_cell = _cell(grid, *inside)
     components: list[np.ndarray] = []
     seeds = [start_cell] if open_cells[start_cell] else []
     while True:
@@ -321,11 +334,11 @@ def building_of(world: Map, inside: tuple[float, float], resolution: float) -> B
         labelled |= comp
         if comp.sum() >= MIN_REGION_CELLS or not components:
             components.append(comp)
-    for k, comp in enumerate(components):
-        region[comp] = k
-    counts = np.array([int(c.sum()) for c in components], dtype=np.int64)
-    # Doors join the regions found around their centres; depth = doors from region 0.
-    n = len(components)
+    return components
+
+
+def _door_depths(grid: Grid, region: np.ndarray, doors: list[np.ndarray], n: int) -> np.ndarray:
+    """Doors join the regions found around their centres; depth = doors from region 0."""
     links: list[set[int]] = [set() for _ in range(n)]
     for poly in doors:
         cx, cy = poly.mean(axis=0)
@@ -344,7 +357,7 @@ def building_of(world: Map, inside: tuple[float, float], resolution: float) -> B
                     depth[b] = depth[a] + 1
                     nxt.append(b)
         frontier = nxt
-    return Building(grid, region, counts, depth, clearance, door_clearance, inside)
+    return depth
 
 
 def _labels_near(grid: Grid, region: np.ndarray, x: float, y: float, reach: float) -> set[int]:
@@ -404,36 +417,55 @@ def _mark_seen(
                 continue
             r = range_max
         a = theta + angles[k]
-        dx, dy = math.cos(a), math.sin(a)
-        length = r / res  # in cells
-        c, q = c0, q0
-        step_c = 1 if dx > 0 else -1
-        step_q = 1 if dy > 0 else -1
-        # Beam parameter (in cells) at the first vertical / horizontal cell boundary, and per cell.
-        inv_x = 1.0 / abs(dx) if dx != 0.0 else math.inf
-        inv_y = 1.0 / abs(dy) if dy != 0.0 else math.inf
-        t_c = ((c + 1 - fx) if dx > 0 else (fx - c)) * inv_x
-        t_q = ((q + 1 - fy) if dy > 0 else (fy - q)) * inv_y
-        while True:
-            if seen[q, c] == 0:
-                seen[q, c] = 1
-                g = region[q, c]
-                if g >= -1:
-                    new += 1
-                    if g >= 0:
-                        counts[g] += 1
-            if t_c < t_q:
-                if t_c > length:
-                    break
-                c += step_c
-                t_c += inv_x
-            else:
-                if t_q > length:
-                    break
-                q += step_q
-                t_q += inv_y
-            if c < 0 or c >= cols or q < 0 or q >= rows:
+        new += _walk_beam(seen, region, counts, fx, fy, c0, q0, math.cos(a), math.sin(a), r / res)
+    return new
+
+
+@njit
+def _walk_beam(
+    seen: np.ndarray,
+    region: np.ndarray,
+    counts: np.ndarray,
+    fx: float,
+    fy: float,
+    c0: int,
+    q0: int,
+    dx: float,
+    dy: float,
+    length: float,
+) -> int:
+    """One beam of `_mark_seen`, from cell (q0, c0) (position (fx, fy) in cells) along (dx, dy)
+    for `length` cells: marks the cells it passes, returns how many free ones were new."""
+    rows, cols = seen.shape
+    new = 0
+    c, q = c0, q0
+    step_c = 1 if dx > 0 else -1
+    step_q = 1 if dy > 0 else -1
+    # Beam parameter (in cells) at the first vertical / horizontal cell boundary, and per cell.
+    inv_x = 1.0 / abs(dx) if dx != 0.0 else math.inf
+    inv_y = 1.0 / abs(dy) if dy != 0.0 else math.inf
+    t_c = ((c + 1 - fx) if dx > 0 else (fx - c)) * inv_x
+    t_q = ((q + 1 - fy) if dy > 0 else (fy - q)) * inv_y
+    while True:
+        if seen[q, c] == 0:
+            seen[q, c] = 1
+            g = region[q, c]
+            if g >= -1:
+                new += 1
+                if g >= 0:
+                    counts[g] += 1
+        if t_c < t_q:
+            if t_c > length:
                 break
+            c += step_c
+            t_c += inv_x
+        else:
+            if t_q > length:
+                break
+            q += step_q
+            t_q += inv_y
+        if c < 0 or c >= cols or q < 0 or q >= rows:
+            break
     return new
 
 
@@ -653,43 +685,11 @@ class ExploreTask(ConfiguredTask):
             self._explored = True
             self._begin("park", ctx.sim_time_s)
         if self._phase in ("explore", "park"):
-            gap = self._rear_gap(pose)
-            touching = gap <= cfg.touch_m
-            if touching and not self._touching:
-                self._touch_speed = math.hypot(ctx.twist[0], ctx.twist[1])
-            self._touching = touching
-            gentle = touching and self._touch_speed <= cfg.park_speed_mps + 1e-9
-            if ctx.new_bumps and gentle and self._only_parking_wall_near(pose):
-                excused = ctx.new_bump_kinds[:1]
-            heading_error = abs(geometry.wrap_angle(pose.theta - self._away))
-            parked = gentle and heading_error <= cfg.park_heading_tolerance_rad + 1e-9
-            if cfg.arrival == "dwell":
-                self._dwell = self._dwell + ctx.dt_s if (parked and still) else 0.0
-                parked_now = self._dwell >= cfg.park_dwell_s - 1e-9
-            elif announce:
-                parked_now = parked
-                false_now = int(not parked)
+            parked_now, false_now, excused = self._parking(ctx, still, announce)
             if parked_now:
-                self._parked = True
-                self._time_to_park = ctx.sim_time_s
-                direction = _unit(self._wall[1] - self._wall[0])
-                lateral = float((np.asarray(pose[:2]) - self._wall[0]) @ direction) - self._start_foot
-                self._parking_error = {"heading_rad": heading_error, "lateral_m": abs(lateral)}
-                self._begin("find", ctx.sim_time_s)
-                self._still = 0.0
                 new_scene = self._object_scene
         elif self._phase == "find":
-            self._object_distance = self._footprint_to_object(pose)
-            close = 0.0 < self._object_distance <= cfg.find_distance_m
-            ready = close and self._still >= cfg.find_still_s - 1e-9
-            if cfg.arrival == "dwell":
-                found_now = ready
-            elif announce:
-                found_now = ready
-                false_now = int(not ready)
-            if found_now:
-                self._time_to_find = ctx.sim_time_s
-                self._begin("done", ctx.sim_time_s)
+            found_now, false_now = self._finding(ctx, announce)
         elif announce:
             false_now = 1
         self._false += false_now
@@ -713,6 +713,57 @@ class ExploreTask(ConfiguredTask):
         elif ctx.idle_s >= cfg.idle_time_s:
             reason = "idle"
         return StepOutcome(terms, reason, found_now, new_scene, excused)
+
+    def _parking(self, ctx: StepContext, still: bool, announce: bool) -> tuple[bool, int, tuple[str, ...]]:
+        """The explore and park phases: (parked now, false announcement, bump kinds excused)."""
+        cfg = self.config
+        pose = ctx.pose
+        parked_now = False
+        false_now = 0
+        excused: tuple[str, ...] = ()
+        gap = self._rear_gap(pose)
+        touching = gap <= cfg.touch_m
+        if touching and not self._touching:
+            self._touch_speed = math.hypot(ctx.twist[0], ctx.twist[1])
+        self._touching = touching
+        gentle = touching and self._touch_speed <= cfg.park_speed_mps + 1e-9
+        if ctx.new_bumps and gentle and self._only_parking_wall_near(pose):
+            excused = ctx.new_bump_kinds[:1]
+        heading_error = abs(geometry.wrap_angle(pose.theta - self._away))
+        parked = gentle and heading_error <= cfg.park_heading_tolerance_rad + 1e-9
+        if cfg.arrival == "dwell":
+            self._dwell = self._dwell + ctx.dt_s if (parked and still) else 0.0
+            parked_now = self._dwell >= cfg.park_dwell_s - 1e-9
+        elif announce:
+            parked_now = parked
+            false_now = int(not parked)
+        if parked_now:
+            self._parked = True
+            self._time_to_park = ctx.sim_time_s
+            direction = _unit(self._wall[1] - self._wall[0])
+            lateral = float((np.asarray(pose[:2]) - self._wall[0]) @ direction) - self._start_foot
+            self._parking_error = {"heading_rad": heading_error, "lateral_m": abs(lateral)}
+            self._begin("find", ctx.sim_time_s)
+            self._still = 0.0
+        return parked_now, false_now, excused
+
+    def _finding(self, ctx: StepContext, announce: bool) -> tuple[bool, int]:
+        """The find phase: (found now, false announcement)."""
+        cfg = self.config
+        self._object_distance = self._footprint_to_object(ctx.pose)
+        close = 0.0 < self._object_distance <= cfg.find_distance_m
+        ready = close and self._still >= cfg.find_still_s - 1e-9
+        found_now = False
+        false_now = 0
+        if cfg.arrival == "dwell":
+            found_now = ready
+        elif announce:
+            found_now = ready
+            false_now = int(not ready)
+        if found_now:
+            self._time_to_find = ctx.sim_time_s
+            self._begin("done", ctx.sim_time_s)
+        return found_now, false_now
 
     def _n_extras_announce(self, ctx: StepContext) -> bool:
         return self.config.arrival == "announce" and bool(ctx.extras[0] > 0.0)

@@ -84,6 +84,16 @@ def _pair(name: str, value: object) -> tuple:
     return tuple(value)  # type: ignore[arg-type]
 
 
+def _count_range(name: str, value: object) -> tuple[int, int]:
+    """A count option as a range (lo, hi) of integers, 0 <= lo <= hi (n alone means (n, n))."""
+    if isinstance(value, int) and not isinstance(value, bool):
+        return value, value
+    lo, hi = _pair(name, value)
+    if not (isinstance(lo, int) and isinstance(hi, int) and 0 <= lo <= hi):
+        raise ValueError(f"{name} must be a range (lo, hi) of integers with 0 <= lo <= hi, got {(lo, hi)}")
+    return lo, hi
+
+
 @dataclass(frozen=True)
 class HospitalTaskConfig:
     """Rules of the hospital task and the ranges of its per-episode draws.
@@ -139,23 +149,19 @@ class HospitalTaskConfig:
     geodesic_resolution_m: float = 0.1
 
     def __post_init__(self) -> None:
-        if self.arrival not in ("dwell", "announce"):
-            raise ValueError(f"arrival must be 'dwell' or 'announce', got {self.arrival!r}")
-        if self.false_announcement not in ("count", "terminate"):
-            raise ValueError(f"false_announcement must be 'count' or 'terminate', got {self.false_announcement!r}")
-        if self.collision not in ("terminate", "continue"):
-            raise ValueError(f"collision must be 'terminate' or 'continue', got {self.collision!r}")
+        for name, allowed in (
+            ("arrival", ("dwell", "announce")),
+            ("false_announcement", ("count", "terminate")),
+            ("collision", ("terminate", "continue")),
+        ):
+            if getattr(self, name) not in allowed:
+                raise ValueError(f"{name} must be {' or '.join(map(repr, allowed))}, got {getattr(self, name)!r}")
         if not isinstance(self.people_towards_start, bool):
             raise ValueError(f"people_towards_start must be true or false, got {self.people_towards_start!r}")
         if not (isinstance(self.n_cabinets, int) and self.n_cabinets >= 1):
             raise ValueError(f"n_cabinets must be an integer >= 1, got {self.n_cabinets!r}")
         for name in ("n_closed_doors", "n_boxes", "n_movers"):
-            value = getattr(self, name)
-            if isinstance(value, int) and not isinstance(value, bool):
-                object.__setattr__(self, name, (value, value))  # n means exactly n: (n, n)
-            lo, hi = _pair(name, getattr(self, name))
-            if not (isinstance(lo, int) and isinstance(hi, int) and 0 <= lo <= hi):
-                raise ValueError(f"{name} must be a range (lo, hi) of integers with 0 <= lo <= hi, got {(lo, hi)}")
+            object.__setattr__(self, name, _count_range(name, getattr(self, name)))
         lo, hi = _pair("box_side_m", self.box_side_m)
         if not 0 < lo <= hi:
             raise ValueError(f"box_side_m must be a range (lo, hi) with 0 < lo <= hi, got {self.box_side_m}")
@@ -530,39 +536,10 @@ class HospitalTask(ConfiguredTask):
     def evaluate(self, ctx: StepContext) -> StepOutcome:
         cfg = self.config
         w = cfg.rewards
-        pose = ctx.pose
         target = self._targets[self._done] if self._done < len(self._targets) else None
-        arrived_now = False
-        false_now = 0
-        progress = 0.0
-        facing = 0.0
+        arrived_now, false_now, progress, facing = False, 0, 0.0, 0.0
         if target is not None:
-            progress = self._progress.update(pose)
-            arrived, distance, error = target.arrival(pose, cfg.facing_tolerance_rad)
-            if w.facing:
-                _, distance_before, error_before = self._arrival_parts
-                facing = _facing_potential(distance, error) - _facing_potential(distance_before, error_before)
-            self._arrival_parts = (arrived, distance, error)
-            if cfg.arrival == "dwell":
-                still = False
-                if arrived:  # (how far it moved matters only there)
-                    moved = math.hypot(pose.x - ctx.pose_before.x, pose.y - ctx.pose_before.y)
-                    turned = abs(geometry.wrap_angle(pose.theta - ctx.pose_before.theta))
-                    still = moved < cfg.dwell_speed_mps * ctx.dt_s and turned < cfg.dwell_turn_rate_radps * ctx.dt_s
-                self._dwell = self._dwell + ctx.dt_s if still else 0.0
-                arrived_now = self._dwell >= cfg.dwell_s - 1e-9
-            elif ctx.extras[0] > 0.0:
-                if arrived:
-                    arrived_now = True
-                else:
-                    false_now = 1
-                    self._false += 1
-            if arrived_now:
-                self._done += 1
-                self._dwell = 0.0
-                if self._done < len(self._targets):
-                    self._progress = GeodesicProgress(self._fields[self._done], pose)
-                    self._arrival_parts = self._targets[self._done].arrival(pose, cfg.facing_tolerance_rad)
+            arrived_now, false_now, progress, facing = self._toward(target, ctx)
         elif cfg.arrival == "announce" and ctx.extras[0] > 0.0:
             false_now = 1
             self._false += 1
@@ -575,16 +552,57 @@ class HospitalTask(ConfiguredTask):
             "false_announce": -w.false_announce * false_now,
             "facing": w.facing * facing,
         }
-        reason = None
+        return StepOutcome(terms, self._ending(ctx, done, false_now), done)
+
+    def _toward(self, target: Cabinet, ctx: StepContext) -> tuple[bool, int, float, float]:
+        """One step toward the next cabinet: (arrived now, false announcement, progress, facing)."""
+        cfg = self.config
+        pose = ctx.pose
+        progress = self._progress.update(pose)
+        arrived, distance, error = target.arrival(pose, cfg.facing_tolerance_rad)
+        facing = 0.0
+        if cfg.rewards.facing:
+            _, distance_before, error_before = self._arrival_parts
+            facing = _facing_potential(distance, error) - _facing_potential(distance_before, error_before)
+        self._arrival_parts = (arrived, distance, error)
+        arrived_now = False
+        false_now = 0
+        if cfg.arrival == "dwell":
+            still = arrived and self._held_still(ctx)  # (how far it moved matters only there)
+            self._dwell = self._dwell + ctx.dt_s if still else 0.0
+            arrived_now = self._dwell >= cfg.dwell_s - 1e-9
+        elif ctx.extras[0] > 0.0:
+            if arrived:
+                arrived_now = True
+            else:
+                false_now = 1
+                self._false += 1
+        if arrived_now:
+            self._done += 1
+            self._dwell = 0.0
+            if self._done < len(self._targets):
+                self._progress = GeodesicProgress(self._fields[self._done], pose)
+                self._arrival_parts = self._targets[self._done].arrival(pose, cfg.facing_tolerance_rad)
+        return arrived_now, false_now, progress, facing
+
+    def _held_still(self, ctx: StepContext) -> bool:
+        cfg = self.config
+        pose, before = ctx.pose, ctx.pose_before
+        moved = math.hypot(pose.x - before.x, pose.y - before.y)
+        turned = abs(geometry.wrap_angle(pose.theta - before.theta))
+        return moved < cfg.dwell_speed_mps * ctx.dt_s and turned < cfg.dwell_turn_rate_radps * ctx.dt_s
+
+    def _ending(self, ctx: StepContext, done: bool, false_now: int) -> str | None:
+        cfg = self.config
         if done:
-            reason = "done"
-        elif ctx.bumps > 0 and cfg.collision == "terminate":
-            reason = "bump"
-        elif false_now and cfg.false_announcement == "terminate":
-            reason = "false_announcement"
-        elif ctx.idle_s >= cfg.idle_time_s:
-            reason = "idle"
-        return StepOutcome(terms, reason, done)
+            return "done"
+        if ctx.bumps > 0 and cfg.collision == "terminate":
+            return "bump"
+        if false_now and cfg.false_announcement == "terminate":
+            return "false_announcement"
+        if ctx.idle_s >= cfg.idle_time_s:
+            return "idle"
+        return None
 
     @property
     def next_target(self) -> Cabinet | None:

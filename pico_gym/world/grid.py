@@ -147,7 +147,7 @@ def _dijkstra(
 
 
 @njit
-def _dijkstra_run(
+def _dijkstra_run(  # noqa: C901 (a compiled kernel, one loop nest: docs/compiled-twins.md)
     cost: FloatArray,
     knight_ok: np.ndarray,
     allowed: np.ndarray,
@@ -225,7 +225,7 @@ def _dijkstra_run(
 
 
 @njit
-def _dijkstra_buckets(
+def _dijkstra_buckets(  # noqa: C901 (a compiled kernel, one loop nest: docs/compiled-twins.md)
     cost: FloatArray,
     knight_ok: np.ndarray,
     allowed: np.ndarray,

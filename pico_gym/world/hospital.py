@@ -332,8 +332,28 @@ def _try_generate(rng: np.random.Generator, cfg: HospitalConfig, robot: RobotCon
     rooms, attach, row_of = row_rooms(rng, legs, target_rooms, cfg.room_side_m)
     if len(rooms) < cfg.n_rooms[0]:
         return None
+    placed_doors = _doors(rng, cfg, legs, rooms, attach)
+    if placed_doors is None:
+        return None
+    doors, room_doors = placed_doors
+    free = list(legs) + rooms + doors
+    walls = outline_segments(free)
+    cabinets = _cabinets(rng, cfg, robot, rooms, room_doors, walls)
+    if len(cabinets) < cfg.building_cabinets[0]:
+        return None
+    start_area = _start_area(rng, legs[0], doors)
+    if start_area is None:
+        return None
+    world = _assemble(walls, cabinets, start_area, doors)
+    return GeneratedHospital(world, tuple(legs), tuple(rooms), tuple(doors), shape)
 
-    # Doors: one from each room to its hallway leg, at least the margin from the wall's corners.
+
+def _doors(
+    rng: np.random.Generator, cfg: HospitalConfig, legs: list[Rect], rooms: list[Rect], attach: list[tuple[int, str]]
+) -> tuple[list[Rect], list[list[Rect]]] | None:
+    """One door from each room to its hallway leg, at least the margin from the wall's corners,
+    and extra doors between neighbouring rooms of a row (loops allowed, as in 2019); every door,
+    and each room's. None if some room's wall to the hallway is too short for a door."""
     margin = cfg.door_corner_margin_m
     doors: list[Rect] = []
     room_doors: list[list[Rect]] = [[] for _ in rooms]
@@ -343,7 +363,6 @@ def _try_generate(rng: np.random.Generator, cfg: HospitalConfig, robot: RobotCon
             return None
         doors.append(door)
         room_doors[i].append(door)
-    # Extra doors between neighbouring rooms of a row (loops allowed, as in 2019).
     for i in range(len(rooms)):
         for j in range(i + 1, len(rooms)):
             a, b = rooms[i], rooms[j]
@@ -354,11 +373,18 @@ def _try_generate(rng: np.random.Generator, cfg: HospitalConfig, robot: RobotCon
                 doors.append(door)
                 room_doors[i].append(door)
                 room_doors[j].append(door)
+    return doors, room_doors
 
-    free = list(legs) + rooms + doors
-    walls = outline_segments(free)
 
-    # Cabinets, against room walls, fronts facing into the room.
+def _cabinets(
+    rng: np.random.Generator,
+    cfg: HospitalConfig,
+    robot: RobotConfig,
+    rooms: list[Rect],
+    room_doors: list[list[Rect]],
+    walls: Segments,
+) -> list[FloatArray]:
+    """Cabinets against room walls, fronts facing into the room (as many as fit, up to the draw)."""
     cabinets: list[FloatArray] = []
     squares: list[FloatArray] = []
     target_cabinets = int(rng.integers(cfg.building_cabinets[0], cfg.building_cabinets[1] + 1))
@@ -372,13 +398,13 @@ def _try_generate(rng: np.random.Generator, cfg: HospitalConfig, robot: RobotCon
             if placed is not None:
                 cabinets.append(placed[0])
                 squares.append(placed[1])
-    if len(cabinets) < cfg.building_cabinets[0]:
-        return None
+    return cabinets
 
-    # The start area: 1 x 1 m in the first hallway leg, away from the doors.
-    x0, y0, x1, y1 = legs[0]
+
+def _start_area(rng: np.random.Generator, leg: Rect, doors: list[Rect]) -> Rect | None:
+    """The start area: 1 x 1 m in the first hallway leg, away from the doors (None: none found)."""
+    x0, y0, x1, y1 = leg
     area_side = START_AREA_SIDE_M
-    start_area = None
     for _ in range(50):
         if y1 - y0 >= area_side + 0.1:
             sx = float(rng.uniform(x0 + 0.05, x1 - area_side - 0.05))
@@ -388,13 +414,8 @@ def _try_generate(rng: np.random.Generator, cfg: HospitalConfig, robot: RobotCon
             sy = 0.5 * (y0 + y1 - area_side)
         area = (sx, sy, sx + area_side, sy + area_side)
         if not any(_overlaps(area, d, 0.3) for d in doors):
-            start_area = area
-            break
-    if start_area is None:
-        return None
-
-    world = _assemble(walls, cabinets, start_area, doors)
-    return GeneratedHospital(world, tuple(legs), tuple(rooms), tuple(doors), shape)
+            return area
+    return None
 
 
 def hallway_door(

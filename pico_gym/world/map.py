@@ -287,7 +287,36 @@ def map_from_dict(data: Any, source: Path | None = None) -> Map:
         raise _fail(where, "version", f"unsupported version {version!r} (this pico-gym reads {FORMAT_VERSION})")
     if "walls" not in data and "heightmap" not in data:
         raise MapError(f"{where}: missing key 'walls' (a map needs 'walls' with 'points', or a 'heightmap')")
+    points = _points(data, where)
+    n = len(points)
+    start_key = "start_area" if "start_area" in data else "start"
+    name = data.get("name", source.stem if source is not None else "")
+    if not isinstance(name, str):
+        raise _fail(where, "name", f"expected a string, got {name!r}")
+    start_pose = _start_pose(data["start_pose"], where) if "start_pose" in data else None
+    result = Map(
+        points=points,
+        walls=_pairs(data.get("walls", []), n, where, "walls"),
+        cabinets=_polygons(data.get("cabinets", []), n, where, "cabinets"),
+        start_area=_polygons(data.get(start_key, []), n, where, start_key),
+        doors=_polygons(data.get("doors", []), n, where, "doors"),
+        name=name,
+        finish=_finish(data["finish"], where) if "finish" in data else None,
+        start_pose=start_pose,
+        obstacles=_obstacles(data.get("obstacles", []), where),
+        movers=tuple(_movers(data.get("movers", []), source, where)),
+        heightmap=_heightmap(data["heightmap"], where) if "heightmap" in data else None,
+        extra={k: v for k, v in data.items() if k not in _KNOWN_KEYS},
+        source=source,
+    )
+    result.wall_segments  # noqa: B018  (reads the heightmap now, so its errors surface at load time)
+    if start_pose is not None:
+        _check_start_pose(result, where)
+    return result
 
+
+def _points(data: dict[str, Any], where: Any) -> FloatArray:
+    """The map's points, (n, 2), within `MAX_MAP_SIDE_M` of each other."""
     points_raw = data.get("points", [])
     if not isinstance(points_raw, list):
         raise _fail(where, "points", f"expected a list, got {type(points_raw).__name__}")
@@ -296,8 +325,7 @@ def map_from_dict(data: Any, source: Path | None = None) -> Map:
     points = np.array([_xy(p, where, f"points[{i}]") for i, p in enumerate(points_raw)], dtype=np.float64).reshape(
         -1, 2
     )
-    n = len(points)
-    if n:
+    if len(points):
         span = points.max(axis=0) - points.min(axis=0)
         if span.max() > MAX_MAP_SIDE_M:
             raise _fail(
@@ -305,80 +333,54 @@ def map_from_dict(data: Any, source: Path | None = None) -> Map:
                 "points",
                 f"the map spans {span[0]:,.1f} x {span[1]:,.1f} m; the limit is {MAX_MAP_SIDE_M:g} m a side",
             )
-    walls = _pairs(data.get("walls", []), n, where, "walls")
-    cabinets = _polygons(data.get("cabinets", []), n, where, "cabinets")
-    start_key = "start_area" if "start_area" in data else "start"
-    start_area = _polygons(data.get(start_key, []), n, where, start_key)
-    doors = _polygons(data.get("doors", []), n, where, "doors")
+    return points
 
-    name = data.get("name", source.stem if source is not None else "")
-    if not isinstance(name, str):
-        raise _fail(where, "name", f"expected a string, got {name!r}")
 
-    finish = None
-    if "finish" in data:
-        f = data["finish"]
-        if not (isinstance(f, list) and len(f) == 2):
-            raise _fail(where, "finish", f"expected [[x1, y1], [x2, y2]], got {f!r}")
-        finish = np.array([_xy(p, where, f"finish[{i}]") for i, p in enumerate(f)])
-        if np.allclose(finish[0], finish[1]):
-            raise _fail(where, "finish", "the two end points coincide")
+def _finish(f: Any, where: Any) -> FloatArray:
+    """The finish line, (2, 2), its ends apart."""
+    if not (isinstance(f, list) and len(f) == 2):
+        raise _fail(where, "finish", f"expected [[x1, y1], [x2, y2]], got {f!r}")
+    finish = np.array([_xy(p, where, f"finish[{i}]") for i, p in enumerate(f)])
+    if np.allclose(finish[0], finish[1]):
+        raise _fail(where, "finish", "the two end points coincide")
+    return finish
 
-    start_pose = None
-    if "start_pose" in data:
-        sp = data["start_pose"]
-        if not isinstance(sp, dict):
-            raise _fail(where, "start_pose", f"expected {{'x', 'y', 'theta'}}, got {sp!r}")
-        for name in ("x", "y", "theta"):
-            if name not in sp:
-                raise _fail(where, "start_pose", f"missing key '{name}'")
-        start_pose = Pose(*(_number(sp[name], where, f"start_pose.{name}") for name in ("x", "y", "theta")))
 
+def _start_pose(sp: Any, where: Any) -> Pose:
+    """A start pose {"x", "y", "theta"}."""
+    if not isinstance(sp, dict):
+        raise _fail(where, "start_pose", f"expected {{'x', 'y', 'theta'}}, got {sp!r}")
+    for name in ("x", "y", "theta"):
+        if name not in sp:
+            raise _fail(where, "start_pose", f"missing key '{name}'")
+    return Pose(*(_number(sp[name], where, f"start_pose.{name}") for name in ("x", "y", "theta")))
+
+
+def _obstacles(value: Any, where: Any) -> tuple[FloatArray, ...]:
+    """The unknown static obstacles: polygons of 3 or more vertices."""
     obstacles = []
-    for k, ob in enumerate(data.get("obstacles", [])):
+    for k, ob in enumerate(value):
         poly = ob.get("polygon") if isinstance(ob, dict) else None
         if not isinstance(poly, list) or len(poly) < 3:
             raise _fail(where, f"obstacles[{k}]", "expected {'polygon': [[x, y], ...]} with at least 3 vertices")
         obstacles.append(np.array([_xy(p, where, f"obstacles[{k}].polygon[{i}]") for i, p in enumerate(poly)]))
+    return tuple(obstacles)
 
-    movers = _movers(data.get("movers", []), source, where)
 
-    heightmap = None
-    if "heightmap" in data:
-        hm = data["heightmap"]
-        if not isinstance(hm, dict) or not isinstance(hm.get("image"), str):
-            raise _fail(where, "heightmap", "expected {'image': 'path.png', 'resolution': 0.025, 'origin': [x, y]}")
-        resolution = _number(hm.get("resolution", COURSE_RESOLUTION_M), where, "heightmap.resolution")
-        if resolution <= 0:
-            raise _fail(where, "heightmap.resolution", f"must be positive, got {resolution}")
-        origin = _xy(hm["origin"], where, "heightmap.origin") if "origin" in hm else None
-        simplify = None
-        if hm.get("simplify_m") is not None:
-            simplify = _number(hm["simplify_m"], where, "heightmap.simplify_m")
-            if not 0 < simplify <= resolution:
-                raise _fail(where, "heightmap.simplify_m", f"must be in (0, resolution = {resolution}], got {simplify}")
-        heightmap = Heightmap(hm["image"], resolution, origin, simplify)
-
-    extra = {k: v for k, v in data.items() if k not in _KNOWN_KEYS}
-    result = Map(
-        points=points,
-        walls=walls,
-        cabinets=cabinets,
-        start_area=start_area,
-        doors=doors,
-        name=name,
-        finish=finish,
-        start_pose=start_pose,
-        obstacles=tuple(obstacles),
-        movers=tuple(movers),
-        heightmap=heightmap,
-        extra=extra,
-        source=source,
-    )
-    result.wall_segments  # noqa: B018  (reads the heightmap now, so its errors surface at load time)
-    if start_pose is not None:
-        _check_start_pose(result, where)
-    return result
+def _heightmap(hm: Any, where: Any) -> Heightmap:
+    """A heightmap reference {"image", "resolution", "origin", "simplify_m"}."""
+    if not isinstance(hm, dict) or not isinstance(hm.get("image"), str):
+        raise _fail(where, "heightmap", "expected {'image': 'path.png', 'resolution': 0.025, 'origin': [x, y]}")
+    resolution = _number(hm.get("resolution", COURSE_RESOLUTION_M), where, "heightmap.resolution")
+    if resolution <= 0:
+        raise _fail(where, "heightmap.resolution", f"must be positive, got {resolution}")
+    origin = _xy(hm["origin"], where, "heightmap.origin") if "origin" in hm else None
+    simplify = None
+    if hm.get("simplify_m") is not None:
+        simplify = _number(hm["simplify_m"], where, "heightmap.simplify_m")
+        if not 0 < simplify <= resolution:
+            raise _fail(where, "heightmap.simplify_m", f"must be in (0, resolution = {resolution}], got {simplify}")
+    return Heightmap(hm["image"], resolution, origin, simplify)
 
 
 def _movers(value: Any, source: Path | None, where: Any) -> tuple[MoverRecord, ...]:
@@ -389,47 +391,7 @@ def _movers(value: Any, source: Path | None, where: Any) -> tuple[MoverRecord, .
     frame; `frame` is the course frame's origin and heading in the map (default: the identity).
     """
     if isinstance(value, dict):
-        if not isinstance(value.get("config"), str):
-            raise _fail(where, "movers", "expected a list of records or {'config': 'file.json', 'frame': [x, y, yaw]}")
-        base = source.parent if source is not None else Path.cwd()
-        path = base / value["config"]
-        try:
-            config = json.loads(path.read_text())
-        except OSError as error:
-            raise _fail(where, "movers.config", f"cannot read {path}: {error.strerror}") from None
-        except json.JSONDecodeError as error:
-            raise _fail(
-                where, "movers.config", f"{path} is not valid JSON: {error.msg} at line {error.lineno}"
-            ) from None
-        if not isinstance(config, dict) or not isinstance(config.get("objects", []), list):
-            raise _fail(where, "movers.config", f"{path}: expected a course config with a list 'objects'")
-        frame = value.get("frame", [0.0, 0.0, 0.0])
-        if not (isinstance(frame, list) and len(frame) == 3):
-            raise _fail(where, "movers.frame", f"expected [x, y, yaw], got {frame!r}")
-        fx, fy, fth = (_number(v, where, f"movers.frame[{i}]") for i, v in enumerate(frame))
-        c, s = math.cos(fth), math.sin(fth)
-        out = []
-        for k, raw in enumerate(config.get("objects", [])):
-            try:
-                rec = mover_record(raw, f"{path}: objects[{k}]")
-            except ValueError as error:
-                raise MapError(f"{where}: movers.config: {error}") from None
-
-            def place(p: tuple[float, float, float]) -> tuple[float, float, float]:
-                return (fx + c * p[0] - s * p[1], fy + s * p[0] + c * p[1], p[2] + fth)
-
-            out.append(
-                MoverRecord(
-                    rec.length,
-                    rec.width,
-                    rec.trigger_radius,
-                    rec.velocity,
-                    place(rec.init_pose),
-                    place(rec.final_pose),
-                    rec.repeat,
-                )
-            )
-        return tuple(out)
+        return _movers_from_config(value, source, where)
     if not isinstance(value, list):
         raise _fail(where, "movers", f"expected a list of moving-object records, got {type(value).__name__}")
     out = []
@@ -438,6 +400,49 @@ def _movers(value: Any, source: Path | None, where: Any) -> tuple[MoverRecord, .
             out.append(mover_record(raw, f"movers[{k}]"))
         except ValueError as error:
             raise MapError(f"{where}: {error}") from None
+    return tuple(out)
+
+
+def _movers_from_config(value: dict[str, Any], source: Path | None, where: Any) -> tuple[MoverRecord, ...]:
+    """`{"config": "file.json", "frame": [x, y, yaw]}`: a course config's objects, placed."""
+    if not isinstance(value.get("config"), str):
+        raise _fail(where, "movers", "expected a list of records or {'config': 'file.json', 'frame': [x, y, yaw]}")
+    base = source.parent if source is not None else Path.cwd()
+    path = base / value["config"]
+    try:
+        config = json.loads(path.read_text())
+    except OSError as error:
+        raise _fail(where, "movers.config", f"cannot read {path}: {error.strerror}") from None
+    except json.JSONDecodeError as error:
+        raise _fail(where, "movers.config", f"{path} is not valid JSON: {error.msg} at line {error.lineno}") from None
+    if not isinstance(config, dict) or not isinstance(config.get("objects", []), list):
+        raise _fail(where, "movers.config", f"{path}: expected a course config with a list 'objects'")
+    frame = value.get("frame", [0.0, 0.0, 0.0])
+    if not (isinstance(frame, list) and len(frame) == 3):
+        raise _fail(where, "movers.frame", f"expected [x, y, yaw], got {frame!r}")
+    fx, fy, fth = (_number(v, where, f"movers.frame[{i}]") for i, v in enumerate(frame))
+    c, s = math.cos(fth), math.sin(fth)
+    out = []
+    for k, raw in enumerate(config.get("objects", [])):
+        try:
+            rec = mover_record(raw, f"{path}: objects[{k}]")
+        except ValueError as error:
+            raise MapError(f"{where}: movers.config: {error}") from None
+
+        def place(p: tuple[float, float, float]) -> tuple[float, float, float]:
+            return (fx + c * p[0] - s * p[1], fy + s * p[0] + c * p[1], p[2] + fth)
+
+        out.append(
+            MoverRecord(
+                rec.length,
+                rec.width,
+                rec.trigger_radius,
+                rec.velocity,
+                place(rec.init_pose),
+                place(rec.final_pose),
+                rec.repeat,
+            )
+        )
     return tuple(out)
 
 
@@ -493,17 +498,21 @@ def map_to_dict(world: Map, relative_to: Path | None = None) -> dict[str, Any]:
     if world.movers:
         data["movers"] = [m.to_dict() for m in world.movers]
     if world.heightmap is not None:
-        image = world.heightmap.image
-        if world.source is not None and relative_to is not None:
-            image = os.path.relpath((world.source.parent / image).resolve(), relative_to.resolve())
-        hm: dict[str, Any] = {"image": image, "resolution": world.heightmap.resolution}
-        if world.heightmap.origin is not None:
-            hm["origin"] = list(world.heightmap.origin)
-        if world.heightmap.simplify_m is not None:
-            hm["simplify_m"] = world.heightmap.simplify_m
-        data["heightmap"] = hm
+        data["heightmap"] = _heightmap_to_dict(world, world.heightmap, relative_to)
     data.update(world.extra)
     return data
+
+
+def _heightmap_to_dict(world: Map, heightmap: Heightmap, relative_to: Path | None) -> dict[str, Any]:
+    image = heightmap.image
+    if world.source is not None and relative_to is not None:
+        image = os.path.relpath((world.source.parent / image).resolve(), relative_to.resolve())
+    hm: dict[str, Any] = {"image": image, "resolution": heightmap.resolution}
+    if heightmap.origin is not None:
+        hm["origin"] = list(heightmap.origin)
+    if heightmap.simplify_m is not None:
+        hm["simplify_m"] = heightmap.simplify_m
+    return hm
 
 
 def save_map(world: Map, path: str | os.PathLike[str]) -> None:

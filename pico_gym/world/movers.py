@@ -85,22 +85,7 @@ def mover_record(data: Any, where: str) -> MoverRecord:
     for key in MOVER_RECORD_KEYS:
         if key not in data:
             raise ValueError(f"{where}: missing key '{key}'")
-
-    def number(key: str) -> float:
-        v = data[key]
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-            raise ValueError(f"{where}.{key}: expected a finite number, got {v!r}")
-        return float(v)
-
-    def pose(key: str) -> tuple[float, float, float]:
-        v = data[key]
-        if not (isinstance(v, list) and len(v) == 3 and all(isinstance(a, (int, float)) for a in v)):
-            raise ValueError(f"{where}.{key}: expected [x, y, yaw], got {v!r}")
-        if not all(math.isfinite(a) for a in v):
-            raise ValueError(f"{where}.{key}: expected finite numbers, got {v!r}")
-        return float(v[0]), float(v[1]), float(v[2])
-
-    values = {k: number(k) for k in ("length", "width", "trigger_radius", "velocity")}
+    values = {k: _record_number(data, k, where) for k in ("length", "width", "trigger_radius", "velocity")}
     for k in ("length", "width", "velocity"):
         if values[k] <= 0:
             raise ValueError(f"{where}.{k}: must be positive, got {values[k]}")
@@ -108,7 +93,28 @@ def mover_record(data: Any, where: str) -> MoverRecord:
         raise ValueError(f"{where}.trigger_radius: must be >= 0, got {values['trigger_radius']}")
     if not isinstance(data["repeat"], bool):
         raise ValueError(f"{where}.repeat: expected true or false, got {data['repeat']!r}")
-    return MoverRecord(init_pose=pose("init_pose"), final_pose=pose("final_pose"), repeat=data["repeat"], **values)
+    return MoverRecord(
+        init_pose=_record_pose(data, "init_pose", where),
+        final_pose=_record_pose(data, "final_pose", where),
+        repeat=data["repeat"],
+        **values,
+    )
+
+
+def _record_number(data: dict[str, Any], key: str, where: str) -> float:
+    v = data[key]
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+        raise ValueError(f"{where}.{key}: expected a finite number, got {v!r}")
+    return float(v)
+
+
+def _record_pose(data: dict[str, Any], key: str, where: str) -> tuple[float, float, float]:
+    v = data[key]
+    if not (isinstance(v, list) and len(v) == 3 and all(isinstance(a, (int, float)) for a in v)):
+        raise ValueError(f"{where}.{key}: expected [x, y, yaw], got {v!r}")
+    if not all(math.isfinite(a) for a in v):
+        raise ValueError(f"{where}.{key}: expected finite numbers, got {v!r}")
+    return float(v[0]), float(v[1]), float(v[2])
 
 
 def box_corners(x: float, y: float, yaw: float, length: float, width: float) -> FloatArray:

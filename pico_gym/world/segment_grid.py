@@ -125,7 +125,7 @@ def _axis(p: float, w: float, i: int, h: float) -> tuple[int, float, float]:
 
 
 @njit
-def _cast_grid(
+def _cast_grid(  # noqa: C901 (a compiled kernel, one loop nest: docs/compiled-twins.md)
     x: float,
     y: float,
     theta: float,

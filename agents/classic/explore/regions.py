@@ -25,6 +25,15 @@ def distance_transform(blocked: np.ndarray, res: float, cap: float) -> np.ndarra
         for c in range(cols):
             if blocked[r, c]:
                 d[r, c] = 0.0
+    _chamfer_pass(d, res, diag)
+    _chamfer_pass(d[::-1, ::-1], res, diag)  # the backward pass: the forward one, turned round
+    return d
+
+
+@njit
+def _chamfer_pass(d: np.ndarray, res: float, diag: float) -> None:
+    """One chamfer pass, row by row from the top left, in place."""
+    rows, cols = d.shape
     for r in range(rows):
         for c in range(cols):
             v = d[r, c]
@@ -37,19 +46,6 @@ def distance_transform(blocked: np.ndarray, res: float, cap: float) -> np.ndarra
             if c > 0:
                 v = min(v, d[r, c - 1] + res)
             d[r, c] = v
-    for r in range(rows - 1, -1, -1):
-        for c in range(cols - 1, -1, -1):
-            v = d[r, c]
-            if r < rows - 1:
-                v = min(v, d[r + 1, c] + res)
-                if c > 0:
-                    v = min(v, d[r + 1, c - 1] + diag)
-                if c < cols - 1:
-                    v = min(v, d[r + 1, c + 1] + diag)
-            if c < cols - 1:
-                v = min(v, d[r, c + 1] + res)
-            d[r, c] = v
-    return d
 
 
 @njit
