@@ -1,11 +1,11 @@
 """The hospital task (2019-2021): visit cabinets in a given order on a given map.
 
-Course rules (hospital-facts.md): PICO is given the map and starts in a 1 x 1 m start area with an
+Course rules (docs/facts/hospital-facts.md): PICO is given the map and starts in a 1 x 1 m start area with an
 arbitrary heading; it visits cabinets in the order announced before the start, standing with its
 centre in the square in front of each cabinet's front (side = the front's length) and facing it,
 and announces arrival; some doors turn out to be closed, boxes that are not on the map stand in
 the way and people walk about. A trial ends on a bump or after 30 s without sensible movement.
-No official time limit was found (hospital-facts.md 1.9, 5): pico-gym's default is the 10 minutes
+No official time limit was found (docs/facts/hospital-facts.md 1.9, 5): pico-gym's default is the 10 minutes
 of a 2019 team's requirement table.
 """
 
@@ -41,10 +41,13 @@ from pico_gym.world.scene import MoverRecord, Movers, Scene, box_corners
 TIME_LIMIT_S = 600.0
 TERMINATION_REASONS = ("done", "bump", "idle", "false_announcement", "timeout")
 # The geodesic fields' robot: its centre keeps the footprint's half-depth (0.1 m) from walls, so a
-# 0.5 m door is crossed sideways (hospital-facts.md 3, "Checks on every episode").
+# 0.5 m door is crossed sideways (docs/facts/hospital-facts.md 3, "Checks on every episode").
 FIELD_INFLATION_M = 0.1
-# Placement margins (hospital-facts.md 3): boxes keep this far from squares, the start area, doors.
+# Placement margins (docs/facts/hospital-facts.md 3): boxes keep this far from squares, the start area, doors.
 BOX_MARGIN_M = 0.3
+# Draws of an episode's people, boxes and closed doors (a generated world: of the world too)
+# before a count the options ask for is refused as one that cannot be met.
+POPULATE_TRIES = 20
 
 
 @dataclass(frozen=True)
@@ -251,6 +254,11 @@ class HospitalTask(ConfiguredTask):
             self._person_lanes: _PersonLanes | None = None
             self._regions: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # cabinet -> its square's cells
             self._check_map(fixed_map)
+            n_doors = len(fixed_map.door_segments)
+            if config.n_closed_doors[0] > n_doors:
+                raise ValueError(
+                    f"n_closed_doors={config.n_closed_doors}: {where} has {n_doors} door(s); ask for at most that"
+                )
         self._arrival_cost = 0.0
         self.episode: Episode | None = None
 
@@ -263,40 +271,28 @@ class HospitalTask(ConfiguredTask):
     # --- reset -------------------------------------------------------------------------------
     def new_episode(self, rng: np.random.Generator, options: dict[str, Any], start: Pose | None) -> Episode:
         cfg = self.config
-        hallway: tuple[tuple[float, float, float, float], ...] = ()
-        if self.fixed_map is None:
-            built = generate_hospital(rng, cfg.hospital, self.robot)
-            world, hallway = built.map, built.hallway
-            cabinets = cabinets_of(world)
-            grid = Grid.covering(world.bounds, cfg.geodesic_resolution_m, margin=0.5)
-            base_clearance = _clearance(grid, world)
+        shortfall: dict[str, tuple[int, int]] = {}
+        for _ in range(POPULATE_TRIES):
+            # A generated world is drawn again, a fixed map's people, boxes and doors are, until
+            # every count drawn from the ranges is met (never silently fewer).
+            world, cabinets, grid, base_clearance, hallway = self._world(rng)
+            where = world.source or world.name
+            order = self._order(rng, options.get("cabinet_order"), len(cabinets), where)
+            targets = [cabinets[i] for i in order]
+            area = self._start_region(world)
+            squares = [c.square for c in targets]
+            reachable = _Reachable(grid, base_clearance, area.mean(axis=0), targets)
+            closed, n_closed = self._closed_doors(rng, options.get("closed_doors"), world, reachable, where)
+            movers, n_movers = self._movers(rng, world, grid, base_clearance, area, squares, hallway)
+            boxes, n_boxes = self._boxes(rng, world, grid, base_clearance, closed, area, squares, movers, reachable)
+            placed = {"n_closed_doors": (n_closed, len(closed)), "n_movers": (n_movers, len(movers))}
+            placed["n_boxes"] = (n_boxes, len(boxes))
+            shortfall = {k: v for k, v in placed.items() if v[1] < v[0]}
+            if not shortfall:
+                break
         else:
-            world, cabinets, grid = self.fixed_map, self._fixed_cabinets, self._fixed_grid
-            if self._fixed_clearance is None:
-                self._fixed_clearance = _clearance(grid, world)
-            base_clearance = self._fixed_clearance
-        where = world.source or world.name
-        order = self._order(rng, options.get("cabinet_order"), len(cabinets), where)
-        targets = [cabinets[i] for i in order]
-        area = self._start_region(world)
-        centre = area.mean(axis=0)
-        squares = [c.square for c in targets]
-
-        def reachable(segments: Segments) -> bool:
-            costs = _costs(grid, base_clearance, segments)
-            mask = costs.reachable_from(float(centre[0]), float(centre[1]))
-            for cab in targets:
-                if not mask[_cell(grid, *cab.dock_point())]:
-                    # The dock point's cell may be blocked while the square is not: ask the square.
-                    rows, cols = costs.region_cells(cab.square)
-                    if not mask[rows, cols].any():
-                        return False
-            return True
-
-        closed = self._closed_doors(rng, options.get("closed_doors"), world, reachable, where)
+            raise ValueError(_shortfall_message(shortfall, where, self.fixed_map is None))
         door_segments = [world.door_segments[d] for d in closed]
-        movers = self._movers(rng, world, grid, base_clearance, area, squares, hallway)
-        boxes = self._boxes(rng, world, grid, base_clearance, closed, area, squares, movers, reachable)
         scene = Scene(world, closed, tuple(boxes), Movers(movers))
 
         extra_segments = door_segments + [geometry.polygon_to_segments(b) for b in boxes]
@@ -331,6 +327,20 @@ class HospitalTask(ConfiguredTask):
         self.episode = Episode(scene, start, shortest, public, {"legs": legs, "fields": fields})
         return self.episode
 
+    def _world(
+        self, rng: np.random.Generator
+    ) -> tuple[Map, tuple[Cabinet, ...], Grid, FloatArray, tuple[tuple[float, float, float, float], ...]]:
+        """The episode's building: drawn (a generated one), or the fixed map; its cabinets, grid,
+        clearance and (generated) hallway legs."""
+        if self.fixed_map is None:
+            built = generate_hospital(rng, self.config.hospital, self.robot)
+            world = built.map
+            grid = Grid.covering(world.bounds, self.config.geodesic_resolution_m, margin=0.5)
+            return world, cabinets_of(world), grid, _clearance(grid, world), built.hallway
+        if self._fixed_clearance is None:
+            self._fixed_clearance = _clearance(self._fixed_grid, self.fixed_map)
+        return self.fixed_map, self._fixed_cabinets, self._fixed_grid, self._fixed_clearance, ()
+
     def _order(self, rng: np.random.Generator, given: Any, n: int, where: Any) -> list[int]:
         if given is None:
             k = min(self.config.n_cabinets, n)
@@ -350,7 +360,9 @@ class HospitalTask(ConfiguredTask):
 
     def _closed_doors(
         self, rng: np.random.Generator, given: Any, world: Map, reachable: Any, where: Any
-    ) -> tuple[int, ...]:
+    ) -> tuple[tuple[int, ...], int]:
+        """The doors closed this episode, and how many were asked for (given, or drawn from
+        `n_closed_doors`): a draw keeps every cabinet of the order reachable from the start area."""
         n = len(world.door_segments)
         if given is not None:
             try:
@@ -371,16 +383,17 @@ class HospitalTask(ConfiguredTask):
                     f"options['closed_doors']: closing doors {list(closed)} together cuts the start area off "
                     "from a cabinet of the order"
                 )
-            return closed
+            return closed, len(closed)
         lo, hi = self.config.n_closed_doors
+        # (a draw above the doors the map has asks for all of them, unless the range's low end
+        # is above it: a fixed map is refused that at load, a generated one drawn again)
         k = min(int(rng.integers(lo, hi + 1)), n)
-        while k > 0:  # fewer doors when no draw of k keeps every target reachable
+        if k > 0:
             for _ in range(20):
                 closed = tuple(sorted(int(d) for d in rng.permutation(n)[:k]))
                 if reachable(np.vstack([world.door_segments[d] for d in closed])):
-                    return closed
-            k -= 1
-        return ()
+                    return closed, k
+        return (), max(k, lo)
 
     def _region_cells(self, costs: CostGrid, cabinet: Cabinet, world: Map) -> tuple[np.ndarray, np.ndarray]:
         """The free cells of a cabinet's arrival square (its cells cached on a fixed map)."""
@@ -460,14 +473,15 @@ class HospitalTask(ConfiguredTask):
         area: FloatArray,
         squares: list[FloatArray],
         hallway: tuple[tuple[float, float, float, float], ...] = (),
-    ) -> list[MoverRecord]:
+    ) -> tuple[list[MoverRecord], int]:
+        """The walking people of the episode (a map's own, or drawn), and how many were asked for."""
         if world.movers:
-            return list(world.movers)  # the map loader made them MoverRecords
+            return list(world.movers), len(world.movers)  # the map loader made them MoverRecords
         lo, hi = self.config.n_movers
         n = int(rng.integers(lo, hi + 1))
         out: list[MoverRecord] = []
         if n == 0:
-            return out
+            return out, 0
         lanes = self._person_lanes if world is self.fixed_map else None
         if lanes is None:
             centre = area.mean(axis=0)
@@ -480,7 +494,7 @@ class HospitalTask(ConfiguredTask):
             record = _draw_person(rng, grid, lanes, area, squares, out, towards)
             if record is not None:
                 out.append(record)
-        return out
+        return out, n
 
     def _boxes(
         self,
@@ -493,11 +507,12 @@ class HospitalTask(ConfiguredTask):
         squares: list[FloatArray],
         movers: list[MoverRecord],
         reachable: Any,
-    ) -> list[FloatArray]:
+    ) -> tuple[list[FloatArray], int]:
+        """The unknown boxes of the episode, and how many were asked for (drawn from `n_boxes`)."""
         lo, hi = self.config.n_boxes
         n = int(rng.integers(lo, hi + 1))
         if n == 0:
-            return []
+            return [], 0
         keep_out = _Keepout([area] + squares + [world.polygon(d) for d in world.doors])
         for m in movers:
             keep_out.add(_mover_lane(m))
@@ -530,7 +545,7 @@ class HospitalTask(ConfiguredTask):
             if not reachable(np.vstack(segs)):
                 continue
             boxes.append(poly)
-        return boxes
+        return boxes, n
 
     # --- step --------------------------------------------------------------------------------
     def evaluate(self, ctx: StepContext) -> StepOutcome:
@@ -714,7 +729,7 @@ def _mover_lane(m: MoverRecord) -> FloatArray:
     return np.array([(lo_x, lo_y), (hi_x, lo_y), (hi_x, hi_y), (lo_x, hi_y)])
 
 
-# The walking person of the 2021 config (hospital-facts.md 1.6): 0.2 x 0.4 m at 0.5 m/s, ping-pong.
+# The walking person of the 2021 config (docs/facts/hospital-facts.md 1.6): 0.2 x 0.4 m at 0.5 m/s, ping-pong.
 PERSON_LENGTH_M, PERSON_WIDTH_M, PERSON_SPEED_MPS = 0.2, 0.4, 0.5
 
 
@@ -758,6 +773,42 @@ class _Fields:
         return field
 
 
+class _Reachable:
+    """Whether, with extra segments in the way (closed doors, boxes), the start area still reaches
+    every cabinet of the order (its dock point, else any cell of its arrival square)."""
+
+    def __init__(self, grid: Grid, clearance: FloatArray, centre: FloatArray, targets: list[Cabinet]) -> None:
+        self.grid, self.clearance, self.targets = grid, clearance, targets
+        self.centre = (float(centre[0]), float(centre[1]))
+
+    def __call__(self, segments: Segments) -> bool:
+        costs = _costs(self.grid, self.clearance, segments)
+        mask = costs.reachable_from(*self.centre)
+        for cab in self.targets:
+            if not mask[_cell(self.grid, *cab.dock_point())]:
+                # The dock point's cell may be blocked while the square is not: ask the square.
+                rows, cols = costs.region_cells(cab.square)
+                if not mask[rows, cols].any():
+                    return False
+        return True
+
+
+_NEEDS = {
+    "n_closed_doors": "closed doors must leave every cabinet of the order reachable from the start area",
+    "n_movers": "a person needs a straight lane of 2 m or more, clear of the start area, the arrival squares "
+    "and the other people",
+    "n_boxes": "a box needs a free spot off the walls, the doors, the start area, the arrival squares and the "
+    "people's lanes that blocks no route to a cabinet",
+}
+
+
+def _shortfall_message(shortfall: dict[str, tuple[int, int]], where: Any, generated: bool) -> str:
+    tries = f"{POPULATE_TRIES} generated hospitals" if generated else f"{POPULATE_TRIES} draws on {where}"
+    counts = "; ".join(f"{key}: {want} asked, at most {got} placed" for key, (want, got) in shortfall.items())
+    needs = "; ".join(_NEEDS[key] for key in shortfall)
+    return f"could not place what the options ask for in {tries} ({counts}): {needs}. Ask for fewer."
+
+
 @dataclass(frozen=True, eq=False)
 class _PersonLanes:
     """Where a person may walk: the cells a path may pass through and, for each cell, its free run
@@ -788,7 +839,7 @@ def _draw_person(
     hallway: tuple[tuple[float, float, float, float], ...] = (),
 ) -> MoverRecord | None:
     """A walking person on a straight 2-6 m path along a grid axis with wall clearance >= half its
-    width + 0.15 m, away from the start area and the arrival squares (hospital-facts.md 3);
+    width + 0.15 m, away from the start area and the arrival squares (docs/facts/hospital-facts.md 3);
     `lanes` keeps the path inside the building. Given the `hallway`'s legs, the path runs along a
     leg and starts at its end farther from the start area (the person comes towards the start)."""
     res = grid.resolution
