@@ -1,6 +1,6 @@
 """PICO the robot: its footprint, velocity limits and how a command is clipped to them.
 
-Facts from ../shared/pico-facts.md: a holonomic base with three omni-wheels 0.1 m from the centre,
+Facts from docs/facts/pico-facts.md: a holonomic base with three omni-wheels 0.1 m from the centre,
 commanded with a body-frame twist (vx, vy, w); competition limits 0.5 m/s translational (norm) and
 1.2 rad/s; outline 0.20 m deep x 0.40 m wide with a 0.05 m notch at the front centre.
 """
@@ -18,7 +18,7 @@ from pico_gym.types import FloatArray
 from pico_gym.validate import number
 
 # The PICO outline in the robot frame (x forward, y left), counter-clockwise, metres
-# (pico-facts.md, "footprint"). The front notch makes it concave.
+# (docs/facts/pico-facts.md, "footprint"). The front notch makes it concave.
 PICO_OUTLINE = np.array(
     [
         (0.1, -0.2),
@@ -38,7 +38,7 @@ PICO_OUTLINE_PARTS = (
     np.array([(0.1, -0.2), (0.1, -0.1), (0.05, -0.1), (0.05, -0.2)]),
     np.array([(0.1, 0.1), (0.1, 0.2), (0.05, 0.2), (0.05, 0.1)]),
 )
-# Competition rules (pico-facts.md): |(vx, vy)| <= 0.5 m/s, |w| <= 1.2 rad/s.
+# Competition rules (docs/facts/pico-facts.md): |(vx, vy)| <= 0.5 m/s, |w| <= 1.2 rad/s.
 PICO_MAX_SPEED_MPS = 0.5
 PICO_MAX_TURN_RATE_RADPS = 1.2
 # Three omni-wheels 0.1 m from the centre.

@@ -270,7 +270,7 @@ def test_closing_a_door_lengthens_the_oracle_chain() -> None:
             seed=0, options={"closed_doors": closed, "cabinet_order": [0, 1, 3], "start_pose": (5.0, 2.5, 0.0)}
         )
         lengths[door] = info["shortest_path_length"]
-    # hospital-facts.md 1.2: 21.2 m open, +1.1 m with D1 closed, +7.6 m with D2 (ours measures to
+    # docs/facts/hospital-facts.md 1.2: 21.2 m open, +1.1 m with D1 closed, +7.6 m with D2 (ours measures to
     # the squares' edges with the footprint's half-depth, so it is shorter, but ordered alike).
     assert 15.0 < lengths[None] < 22.0
     assert lengths[None] < lengths[0] < lengths[1]
@@ -501,7 +501,7 @@ def test_2021_heightmap_is_simplified_within_a_centimetre() -> None:
 def test_2021_movers_come_from_the_course_config_in_the_map_frame() -> None:
     world = load_shipped("hospital_2021")
     cart, person = world.movers
-    # hospital-facts.md 1.6: cart x = 4.785, y 0.20 -> 2.94, yaw +90; person x = 6.725, y 6.0 <-> -0.1.
+    # docs/facts/hospital-facts.md 1.6: cart x = 4.785, y 0.20 -> 2.94, yaw +90; person x = 6.725, y 6.0 <-> -0.1.
     assert cart.init_pose == pytest.approx((4.785, 0.20, UP)) and cart.final_pose == pytest.approx((4.785, 2.94, UP))
     assert person.init_pose == pytest.approx((6.725, 6.0, UP)) and person.final_pose == pytest.approx((6.725, -0.1, UP))
     assert (cart.velocity, cart.repeat, person.velocity, person.repeat) == (0.6, False, 0.5, True)

@@ -6,7 +6,7 @@ lands to a wall; one that lands far from every wall is unexplained (a box, a per
 door) and scores a constant floor, so clutter lowers a pose's score without breaking it. All wall
 points count, not corners: boxes in corners and closed doors flush with a wall do not remove what
 the pose is judged on (the course teams' localisers were corner-based and failed on exactly that,
-hospital-facts.md section 2).
+docs/facts/hospital-facts.md section 2).
 
 - `global_search`: every pose of a region (x, y on a grid, any heading) scored against one or
   more scans taken at known odometry offsets; the best pose and how ambiguous it is (the best pose

@@ -8,7 +8,7 @@ map's door openings is a closed door, not a person. Each cluster is associated w
 predicted track within a gate (greedy, nearest pairs first) and the track is updated with an
 alpha-beta filter (constant velocity). A track that has travelled far enough within a short window
 is *moving*: the course's people and carts walk at 0.5-0.6 m/s and stop only while the robot is
-near them (hospital-facts.md 1.6), boxes and closed doors never move. A walking track that leaves
+near them (docs/facts/hospital-facts.md 1.6), boxes and closed doors never move. A walking track that leaves
 the view is remembered for a while: seen again where it could have walked, it is the same person,
 still moving (a person who paused behind the robot is not a new, standing obstacle).
 
@@ -27,7 +27,7 @@ import numpy as np
 
 from pico_gym.types import FloatArray
 
-# emc_simulator moving_object.cpp (hospital-facts.md 1.6): an object pauses while the robot's
+# emc_simulator moving_object.cpp (docs/facts/hospital-facts.md 1.6): an object pauses while the robot's
 # centre is within its half-diagonal plus this margin.
 PAUSE_MARGIN_M = 0.3
 

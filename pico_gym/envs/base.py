@@ -13,7 +13,7 @@ import math
 import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, NamedTuple
+from typing import Any, ClassVar, NamedTuple
 
 import gymnasium as gym
 import numpy as np
@@ -700,3 +700,45 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         state = self.__dict__.copy()
         state["_renderer"] = None  # pygame surfaces and windows do not pickle
         return state
+
+
+class PicoMapEnv(PicoEnv):
+    """A `PicoEnv` whose world is a shipped map, a map file or a generated one: what the shipped
+    envs share. A subclass names its id, its task config class and its generator families, and
+    builds its task (`make_task`); `gym.make(ID, map=None, map_path=None, config=None,
+    render_mode=None, family=None, **options)` is this constructor."""
+
+    env_id: ClassVar[str]
+    task_config: ClassVar[type]
+    families: ClassVar[dict[str, dict[str, Any]]] = {}
+
+    def __init__(
+        self,
+        render_mode: str | None = None,
+        map: str | Map | None = None,  # noqa: A002  (the name users type)
+        map_path: str | os.PathLike[str] | None = None,
+        config: EnvConfig | None = None,
+        **options: Any,
+    ) -> None:
+        self.check_options(options)
+        options = with_family(self.env_id, self.families, options)
+        fixed = resolve_map(map, map_path)
+        env_config = EnvConfig.make(config, task=self.task_config(), **options)
+        if not isinstance(env_config.task, self.task_config):
+            needs = self.task_config.__name__
+            raise TypeError(f"{self.env_id} needs a {needs}, got {type(env_config.task).__name__}")
+        super().__init__(self.make_task(env_config, fixed), env_config, render_mode)
+
+    @classmethod
+    def check_options(cls, options: dict[str, Any]) -> None:
+        """Refuse, before any work, options the env gives another meaning (none by default)."""
+
+    @classmethod
+    def make_task(cls, config: EnvConfig, fixed: Map | None) -> Task:
+        """The env's task for a config (its `task` an instance of `task_config`) and a fixed map."""
+        raise NotImplementedError
+
+    @classmethod
+    def default_config(cls) -> EnvConfig:
+        """The env's config with every default (what `gym.make` options override)."""
+        return EnvConfig(task=cls.task_config())

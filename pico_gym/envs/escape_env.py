@@ -2,15 +2,12 @@
 
 from __future__ import annotations
 
-import os
-from typing import Any
-
-from pico_gym.envs.base import EnvConfig, PicoEnv, resolve_map, with_family
+from pico_gym.envs.base import EnvConfig, PicoMapEnv
 from pico_gym.tasks.escape import FAMILIES, EscapeTask, EscapeTaskConfig
 from pico_gym.world.map import Map
 
 
-class PicoEscapeEnv(PicoEnv):
+class PicoEscapeEnv(PicoMapEnv):
     """The escape-room challenge of TU/e's Embedded Motion Control course.
 
     ## Description
@@ -84,20 +81,10 @@ class PicoEscapeEnv(PicoEnv):
     - v0: initial version.
     """
 
-    def __init__(
-        self,
-        render_mode: str | None = None,
-        map: str | Map | None = None,  # noqa: A002  (the name users type)
-        map_path: str | os.PathLike[str] | None = None,
-        config: EnvConfig | None = None,
-        **options: Any,
-    ) -> None:
-        options = with_family("PicoEscape-v0", FAMILIES, options)
-        fixed = resolve_map(map, map_path)
-        env_config = EnvConfig.make(config, task=EscapeTaskConfig(), **options)
-        super().__init__(EscapeTask(env_config.task, env_config.robot, fixed), env_config, render_mode)
+    env_id = "PicoEscape-v0"
+    task_config = EscapeTaskConfig
+    families = FAMILIES
 
-    @staticmethod
-    def default_config() -> EnvConfig:
-        """The env's config with every default (what `gym.make` options override)."""
-        return EnvConfig(task=EscapeTaskConfig())
+    @classmethod
+    def make_task(cls, config: EnvConfig, fixed: Map | None) -> EscapeTask:
+        return EscapeTask(config.task, config.robot, fixed)

@@ -2,18 +2,17 @@
 
 from __future__ import annotations
 
-import os
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 
-from pico_gym.envs.base import EnvConfig, PicoEnv, resolve_map, with_family
+from pico_gym.envs.base import EnvConfig, PicoMapEnv
 from pico_gym.tasks.explore import FAMILIES, ExploreTask, ExploreTaskConfig, ExploreTaskSpec, OccupancyBelief
 from pico_gym.world.map import Map
 
 
-class PicoExploreEnv(PicoEnv):
+class PicoExploreEnv(PicoMapEnv):
     """The 2018 hospital challenge of TU/e's Embedded Motion Control course.
 
     ## Description
@@ -83,32 +82,22 @@ class PicoExploreEnv(PicoEnv):
     - v0: initial version.
     """
 
-    def __init__(
-        self,
-        render_mode: str | None = None,
-        map: str | Map | None = None,  # noqa: A002  (the name users type)
-        map_path: str | os.PathLike[str] | None = None,
-        config: EnvConfig | None = None,
-        **options: Any,
-    ) -> None:
-        options = with_family("PicoExplore-v0", FAMILIES, options)
-        fixed = resolve_map(map, map_path)
-        env_config = EnvConfig.make(config, task=ExploreTaskConfig(), **options)
-        if not isinstance(env_config.task, ExploreTaskConfig):
-            raise TypeError(f"PicoExplore-v0 needs an ExploreTaskConfig, got {type(env_config.task).__name__}")
-        task = ExploreTask(env_config.task, env_config.robot, env_config.lrf, fixed)
-        super().__init__(task, env_config, render_mode)
-        self.explore_task = task
-        self._phase_key = env_config.task.phase_observation
+    env_id = "PicoExplore-v0"
+    task_config = ExploreTaskConfig
+    families = FAMILIES
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self.explore_task: ExploreTask = self.task  # type: ignore[assignment]  # (make_task's)
+        self._phase_key = self.config.task.phase_observation
         if self._phase_key:
             spaces = dict(self.observation_space.spaces)
             spaces["phase"] = gym.spaces.Discrete(2)
             self.observation_space = gym.spaces.Dict(spaces)
 
-    @staticmethod
-    def default_config() -> EnvConfig:
-        """The env's config with every default (what `gym.make` options override)."""
-        return EnvConfig(task=ExploreTaskConfig())
+    @classmethod
+    def make_task(cls, config: EnvConfig, fixed: Map | None) -> ExploreTask:
+        return ExploreTask(config.task, config.robot, config.lrf, fixed)
 
     def _observation(self) -> dict[str, np.ndarray]:
         obs = super()._observation()

@@ -2,15 +2,14 @@
 
 from __future__ import annotations
 
-import os
 from typing import Any
 
-from pico_gym.envs.base import EnvConfig, PicoEnv, resolve_map, with_family
+from pico_gym.envs.base import EnvConfig, PicoMapEnv
 from pico_gym.tasks.hospital import FAMILIES, HospitalTask, HospitalTaskConfig, HospitalTaskSpec
 from pico_gym.world.map import Map
 
 
-class PicoHospitalEnv(PicoEnv):
+class PicoHospitalEnv(PicoMapEnv):
     """The hospital challenge (2019-2021) of TU/e's Embedded Motion Control course.
 
     ## Description
@@ -78,7 +77,7 @@ class PicoHospitalEnv(PicoEnv):
     `collision="terminate"`, the default), `false_announcement` (if so configured), `idle` (30 s
     standing still). Truncated: `timeout` at `time_limit_s` = 600 s of simulated time. No official
     hospital time limit was found; 600 s is the 10 minutes of a 2019 team's requirements
-    (hospital-facts.md 1.9). Stepping an ended episode raises RuntimeError.
+    (docs/facts/hospital-facts.md 1.9). Stepping an ended episode raises RuntimeError.
 
     ## Info (privileged)
     `pose`, `cabinets_done` (count, in order), `next_cabinet` (its index, None when done),
@@ -99,31 +98,22 @@ class PicoHospitalEnv(PicoEnv):
     - v0: initial version.
     """
 
-    def __init__(
-        self,
-        render_mode: str | None = None,
-        map: str | Map | None = None,  # noqa: A002  (the name users type)
-        map_path: str | os.PathLike[str] | None = None,
-        config: EnvConfig | None = None,
-        **options: Any,
-    ) -> None:
+    env_id = "PicoHospital-v0"
+    task_config = HospitalTaskConfig
+    families = FAMILIES
+
+    @classmethod
+    def check_options(cls, options: dict[str, Any]) -> None:
         if "closed_doors" in options:
             raise TypeError(
                 "closed_doors is a reset option naming the doors to close (reset(options={'closed_doors': [1]})); "
                 f"the number of doors drawn closed per episode is n_closed_doors=(lo, hi), got closed_doors="
                 f"{options['closed_doors']!r}"
             )
-        options = with_family("PicoHospital-v0", FAMILIES, options)
-        fixed = resolve_map(map, map_path)
-        env_config = EnvConfig.make(config, task=HospitalTaskConfig(), **options)
-        if not isinstance(env_config.task, HospitalTaskConfig):
-            raise TypeError(f"PicoHospital-v0 needs a HospitalTaskConfig, got {type(env_config.task).__name__}")
-        super().__init__(HospitalTask(env_config.task, env_config.robot, fixed), env_config, render_mode)
 
-    @staticmethod
-    def default_config() -> EnvConfig:
-        """The env's config with every default (what `gym.make` options override)."""
-        return EnvConfig(task=HospitalTaskConfig())
+    @classmethod
+    def make_task(cls, config: EnvConfig, fixed: Map | None) -> HospitalTask:
+        return HospitalTask(config.task, config.robot, fixed)
 
     @property
     def task_spec(self) -> HospitalTaskSpec:

@@ -12,7 +12,7 @@ segments (both give the same ranges, to rounding):
   of the map. The env builds it once per episode (`Scene.lrf_static`); `lrf_ranges` keeps the
   last few it built.
 
-Defaults are PICO's (../shared/pico-facts.md): 1000 beams over -2..+2 rad, 0.01-10 m, additive
+Defaults are PICO's (docs/facts/pico-facts.md): 1000 beams over -2..+2 rad, 0.01-10 m, additive
 uniform noise of +-0.01 m, mounted at the robot origin.
 """
 

@@ -2,7 +2,7 @@
 
 The wheels turn as commanded and their encoders count exactly that; the ground moves the robot by
 each wheel's speed times (1 + e_i), where e_i ~ U(-0.002, 0.002) is redrawn every few seconds
-(emc_simulator's model, pico-facts.md), optionally times a per-step slip factor. The env drives the
+(emc_simulator's model, docs/facts/pico-facts.md), optionally times a per-step slip factor. The env drives the
 physics with the resulting true twist and integrates the commanded one for odometry, so odometry
 drifts slowly, and keeps counting when a wall stops the robot, as on the real PICO.
 """

@@ -21,7 +21,8 @@ if TYPE_CHECKING:
     from pico_gym.world.grid import GeodesicField
     from pico_gym.world.scene import Scene
 
-# Competition rule (pico-facts.md, hospital-facts.md 1.9): 30 s without sensible movement ends a trial.
+# Competition rule (docs/facts/pico-facts.md, docs/facts/hospital-facts.md 1.9): 30 s without sensible
+# movement ends a trial.
 IDLE_TIME_S = 30.0
 
 # Reset options the step template itself handles; a task adds its own (`Task.option_keys`).

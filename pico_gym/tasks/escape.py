@@ -1,6 +1,6 @@
 """The escape-room task: where PICO starts, when it has escaped, and what each step is worth.
 
-Competition rules (pico-facts.md): finished = the whole robot across the finish line without
+Competition rules (docs/facts/pico-facts.md): finished = the whole robot across the finish line without
 bumping; a trial ends on a bump, or after 30 s without sensible movement; 5 minutes in total.
 """
 

@@ -1,6 +1,6 @@
 """The 2018 explore task: explore an unknown hospital, park backwards, then find the object.
 
-Course rules (hospital-facts.md 1.3, 1.10): PICO starts in the hallway up to 1 m from the "parking
+Course rules (docs/facts/hospital-facts.md 1.3, 1.10): PICO starts in the hallway up to 1 m from the "parking
 wall", which is behind it; it explores the 3-6 rooms of a building it was not given, parks
 backwards against that wall ("I am parked!"), and then finds an object placed in one of the rooms
 (the one that needs the most doors to reach from the start, as the teams were told) and stands

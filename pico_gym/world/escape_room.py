@@ -1,6 +1,6 @@
 """The escape-room generator: a new room for every reset, following the challenge's rules.
 
-Rules (pico-facts.md, "Escape room challenge"): a rectangular room of unknown size, one exit
+Rules (docs/facts/pico-facts.md, "Escape room challenge"): a rectangular room of unknown size, one exit
 corridor perpendicular to a wall, 0.5-1.5 m wide, anywhere along the wall including flush with a
 room corner; the finish line more than 3 m into the corridor, the corridor walls a little longer,
 the far end open; walls not perfectly straight, corridor walls not exactly parallel.

@@ -25,7 +25,7 @@ COURSE_RESOLUTION_M = 0.025
 BLOCK_HEIGHT_M = 1.0
 DOOR_GREY_MIN = 51
 DOOR_GREY_MAX = 204
-# pico-facts.md: the LRF is mounted 0.3 m above the floor; lower objects are not seen.
+# docs/facts/pico-facts.md: the LRF is mounted 0.3 m above the floor; lower objects are not seen.
 LASER_PLANE_HEIGHT_M = 0.3
 # ROS map_server's free threshold (occupancy below it is free), which the course simulator later
 # adopted: pixel values 230-255 are floor.

@@ -1,10 +1,10 @@
 """Hospital worlds: cabinet geometry (fronts, arrival squares) and the hospital generator.
 
-Cabinets (course rule, hospital-facts.md 1.8): a cabinet is a closed polygon whose first segment is
+Cabinets (course rule, docs/facts/hospital-facts.md 1.8): a cabinet is a closed polygon whose first segment is
 its front; the robot has arrived when its centre is inside the square in front of the front (side
 = the front's length) and it faces the front. `Cabinet` computes that square and heading.
 
-The generator follows the 2019 rules (hospital-facts.md section 3): a hallway U(1.2, 1.8) m wide,
+The generator follows the 2019 rules (docs/facts/hospital-facts.md section 3): a hallway U(1.2, 1.8) m wide,
 straight (I) or with one bend (L); 3-6 rectangular rooms of 2.0-4.5 m off both sides of it,
 separated by 0.2 m walls; a door U(0.5, 1.0) m from each room to the hallway, at least 0.3 m
 from the corners of the wall it is in, and with probability 0.3 an extra door to a neighbouring
@@ -118,7 +118,7 @@ def square_admits_robot(
     cabinet: Cabinet, segments: Segments, robot: RobotConfig, clearance_m: float = 0.05, tolerance_rad: float = 0.26
 ) -> bool:
     """Whether some pose with the centre in the square, facing the front (within +-15 deg), keeps
-    `clearance_m` from every segment (hospital-facts.md 3, the generator's feasibility check)."""
+    `clearance_m` from every segment (docs/facts/hospital-facts.md 3, the generator's feasibility check)."""
     side = cabinet.side_m
     a = cabinet.front[0]
     t = (cabinet.front[1] - a) / side

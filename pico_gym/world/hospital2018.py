@@ -1,6 +1,6 @@
 """The 2018 hospital: an unknown building to explore, with a parking wall at the hallway's end.
 
-Rules (hospital-facts.md 1.10 and 3): a hallway U(1.2, 1.8) m wide, straight (I) or with one bend
+Rules (docs/facts/hospital-facts.md 1.10 and 3): a hallway U(1.2, 1.8) m wide, straight (I) or with one bend
 (L); 3-6 rectangular rooms of 2.0-4.5 m off both sides of it, 0.2 m walls apart; door openings
 U(0.5, 1.5) m, at least 0.3 m from the corners of the wall they are in. The rooms and doors form a
 tree ("it is not possible to drive in a loop"): every room has exactly one door towards the

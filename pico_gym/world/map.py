@@ -1,6 +1,6 @@
 """The pico-gym map: a JSON file (a superset of the course's hospital maps) to a `Map` value.
 
-The format is documented in maps/README.md (and ../shared/map-format.md). Every course JSON map
+The format is documented in maps/README.md (and docs/facts/map-format.md). Every course JSON map
 loads as it is; heightmap images load through the "heightmap" key or directly with
 `load_map("some.pgm")`. Every problem with a file raises `MapError` naming the file and the key
 or index at fault.

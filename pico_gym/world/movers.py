@@ -1,6 +1,6 @@
 """Moving objects ("walking people"), exactly as the course simulator moves them.
 
-emc_simulator src/moving_object.cpp and src/main.cpp (hospital-facts.md 1.6): a box of `length` x
+emc_simulator src/moving_object.cpp and src/main.cpp (docs/facts/hospital-facts.md 1.6): a box of `length` x
 `width` keeping its initial yaw, travelling straight from `init_pose` to `final_pose` at
 `velocity`; it starts (once) when the robot's origin comes within `trigger_radius` of its centre,
 pauses while the centre distance is below r_pause = hypot(w/2, l/2) + 0.3 m, stops within 0.1 m of

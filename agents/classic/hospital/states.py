@@ -75,7 +75,7 @@ def blocker(agent: HospitalAgent) -> FloatArray | None:
 
 def holding_a_person(agent: HospitalAgent) -> bool:
     """Whether the robot is inside a moving track's pause radius (+ 0.1 m): the simulator's
-    person or cart waits there until the robot leaves (hospital-facts.md 1.6)."""
+    person or cart waits there until the robot leaves (docs/facts/hospital-facts.md 1.6)."""
     if not agent.config.track_people:
         return False
     pose = agent.pose
