@@ -186,6 +186,13 @@ def cmd_run(args: argparse.Namespace) -> int:
         raise ValueError("--render human needs a display (none found: DISPLAY is not set); use --gif or --video")
     if args.video:
         require("moviepy", "video", "--video")
+    if args.gif_every < 1 or not 0.05 <= args.gif_scale <= 1.0:
+        raise ValueError(
+            f"--gif-every must be >= 1 and --gif-scale in [0.05, 1], got {args.gif_every} and {args.gif_scale}"
+        )
+    for flag, path in (("--gif", args.gif), ("--video", args.video), ("--png", args.png)):
+        if path and not Path(path).resolve().parent.is_dir():
+            raise ValueError(f"{flag} {path}: folder {Path(path).resolve().parent} does not exist")
     want_frames = bool(args.gif or args.video or args.png)
     mode = "human" if args.render == "human" else ("rgb_array" if want_frames else None)
     env = gym.make(args.env, render_mode=mode, **_env_options(args))
@@ -193,10 +200,13 @@ def cmd_run(args: argparse.Namespace) -> int:
     agent = make_agent(args.agent, env, **_agent_kwargs(args, args.agent))
     pico_env(env).set_overlay(agent.overlay)
     frames: list[Any] = []
+    stride = args.gif_every if args.gif and not args.video else 1
+    steps = [0]
 
     def record_frame() -> None:
-        if len(frames) < args.max_frames:
+        if len(frames) < args.max_frames and steps[0] % stride == 0:
             frames.append(env.render())
+        steps[0] += 1
 
     record = run_episode(
         env,
@@ -207,7 +217,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         options=_reset_options(args) or None,
     )
     if args.gif:
-        save_gif(frames, args.gif, env.metadata["render_fps"])
+        save_gif(frames, args.gif, env.metadata["render_fps"] * stride, scale=args.gif_scale)
         print(f"wrote {args.gif} ({len(frames)} frames)")
     if args.video:
         from moviepy import ImageSequenceClip
@@ -264,7 +274,7 @@ def _bench_episodes(args: argparse.Namespace) -> tuple[Any, str]:
 def cmd_bench(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
-    from pico_gym.agents.compare import protocol_row, run_comparison, settings_of
+    from pico_gym.agents.compare import protocol_header, protocol_row, run_comparison, settings_of
     from pico_gym.agents.evaluation import format_summary, summarize
 
     episodes, where = _bench_episodes(args)
@@ -289,7 +299,8 @@ def cmd_bench(args: argparse.Namespace) -> int:
         shown = ", ".join(f"{r.seed}:{r.termination_reason}" for r in failures[:20])
         print(f"  failures (seed:reason)   {shown}{' ...' if len(failures) > 20 else ''}")
     if args.suite is not None:
-        print(protocol_row(args.suite, args.split or "-", args.agent, summary))
+        print(protocol_header(args.env))
+        print(protocol_row(args.suite, args.split or "-", args.agent, summary, args.env))
     if args.json:
         payload = {
             "settings": {**settings_of([args.agent], episodes, kwargs), "reset_options": reset_options},
@@ -309,6 +320,10 @@ def add_run(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--video", help="write the episode as an MP4 (the video extra: moviepy)")
     p.add_argument("--png", help="write the episode's last frame as a PNG")
     p.add_argument("--max-frames", type=int, default=3000, help="cap on GIF/video frames")
+    p.add_argument(
+        "--gif-every", type=int, default=1, help="keep every N-th step's frame in the GIF (it plays N times faster)"
+    )
+    p.add_argument("--gif-scale", type=float, default=0.5, help="the GIF's size against the render's (default: 0.5)")
     p.set_defaults(func=cmd_run)
 
 

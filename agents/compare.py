@@ -155,13 +155,24 @@ def read_results(paths: Sequence[str | Path]) -> tuple[dict[str, list[EpisodeRec
     return results, episodes
 
 
-def protocol_row(suite: str, split: str, agent: str, s: Summary) -> str:
-    """The benchmark protocol's table row of one agent on one suite and split (docs/benchmarks.md)."""
+def protocol_row(suite: str, split: str, agent: str, s: Summary, env_id: str | None = None) -> str:
+    """The benchmark protocol's table row of one agent on one suite and split (docs/benchmarks.md),
+    with the task's own columns (its `EpisodeMetrics.columns`) when `env_id` is given."""
     kinds = ", ".join(f"{k} {n}" for k, n in s.bumps_by_kind.items() if n) or "-"
+    extra = [f(s) for name, f in task_info(env_id).load_metrics().columns if name != "bumps by kind"] if env_id else []
     return (
         f"| {suite} | {split} | {agent} | {s.episodes} | {100 * s.success_rate:.1f} % | {100 * s.bump_rate:.1f} % | "
         f"{kinds} | {s.spl:.3f} | {s.sct_median:.3f} | {_seconds(s.time_median_s)} |"
+        + "".join(f" {cell} |" for cell in extra)
     )
+
+
+def protocol_header(env_id: str | None = None) -> str:
+    """The header of `protocol_row`'s table (with the task's columns when `env_id` is given)."""
+    extra = [name for name, _ in task_info(env_id).load_metrics().columns if name != "bumps by kind"] if env_id else []
+    names = ["suite", "split", "agent", "episodes", "success", "bumps", "bumps by kind", "SPL", "SCT median", "time"]
+    names += extra
+    return "| " + " | ".join(names) + " |\n|" + "---|" * len(names)
 
 
 # --- outputs --------------------------------------------------------------------------------

@@ -27,7 +27,9 @@ from pico_gym.world.map import MapError
 def cmd_maps(args: argparse.Namespace) -> int:
     from pico_gym.world.catalog import load_shipped, shipped_maps
 
-    if args.name is None:
+    if args.name is not None and args.map_path is not None:
+        raise ValueError("give a shipped map's name or --map-path FILE, not both")
+    if args.name is None and args.map_path is None:
         print(f"{'name':<30} {'env':<16} {'size (m)':<13} {'segments':>8} {'cabinets':>8} {'doors':>5}  file")
         for name, path in shipped_maps().items():
             world = load_shipped(name)
@@ -38,8 +40,13 @@ def cmd_maps(args: argparse.Namespace) -> int:
                 f" {len(world.cabinets):>8} {len(world.door_segments):>5}  {path.name}"
             )
         return 0
-    world = load_shipped(args.name)
-    out = args.png or f"{args.name}.png"
+    if args.map_path is not None:
+        from pico_gym.world.map import load_map
+
+        world = load_map(args.map_path)
+    else:
+        world = load_shipped(args.name)
+    out = args.png or f"{world.name or 'map'}.png"
     from pico_gym.render import render_map_png
 
     render_map_png(world, out)
@@ -98,8 +105,11 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"pico-gym {pico_gym.__version__}")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_ParserWithDefaults)
 
-    p = sub.add_parser("maps", help="list the shipped maps, or draw one to a PNG")
-    p.add_argument("name", nargs="?", help="a map to draw")
+    p = sub.add_parser("maps", help="list the shipped maps, or draw one (or any map file) to a PNG")
+    p.add_argument("name", nargs="?", help="a shipped map to draw")
+    p.add_argument(
+        "--map-path", help="a map file to draw as pico-gym reads it (JSON, heightmap image, map_server YAML)"
+    )
     p.add_argument("--png", help="output file (default: NAME.png)")
     p.set_defaults(func=cmd_maps)
 

@@ -29,16 +29,6 @@ def _find(config: Any, key: str, path: tuple[str, ...] = ()) -> list[tuple[str, 
     return hits
 
 
-def _set(config: C, path: tuple[str, ...], value: Any) -> C:
-    head = path[0]
-    current = getattr(config, head)
-    if len(path) > 1:
-        value = _set(current, path[1:], value)
-    elif dataclasses.is_dataclass(current) and isinstance(value, dict):
-        value = with_overrides(current, **value)
-    return dataclasses.replace(config, **{head: value})  # type: ignore[type-var]  # (C is a dataclass)
-
-
 def all_options(config: Any, path: tuple[str, ...] = ()) -> list[str]:
     """Dotted names of every field reachable from a config."""
     names = []
@@ -53,9 +43,13 @@ def all_options(config: Any, path: tuple[str, ...] = ()) -> list[str]:
 def with_overrides(config: C, **overrides: Any) -> C:
     """A copy of a (nested) frozen dataclass config with fields replaced by keyword.
 
+    Every config is rebuilt once with all of its changes, so its checks see the final values
+    (e.g. a higher speed together with the shorter physics sub-step that keeps walls solid).
+
     Raises:
         TypeError: for a keyword that names no field, or more than one.
     """
+    paths: list[tuple[tuple[str, ...], Any]] = []
     for key, value in overrides.items():
         hits = _find(config, key)
         if not hits:
@@ -63,5 +57,23 @@ def with_overrides(config: C, **overrides: Any) -> C:
         top_level = [h for h in hits if len(h) == 1]
         if len(hits) > 1 and not top_level:
             raise TypeError(f"option {key!r} is ambiguous: {', '.join('.'.join(h) for h in hits)}")
-        config = _set(config, top_level[0] if top_level else hits[0], value)
-    return config
+        paths.append((top_level[0] if top_level else hits[0], value))
+    return _apply(config, paths)
+
+
+def _apply(config: C, paths: list[tuple[tuple[str, ...], Any]]) -> C:
+    """`config` with each (path, value) set, each nested config rebuilt once."""
+    changes: dict[str, Any] = {}
+    nested: dict[str, list[tuple[tuple[str, ...], Any]]] = {}
+    for path, value in paths:
+        head = path[0]
+        if len(path) > 1:
+            nested.setdefault(head, []).append((path[1:], value))
+            continue
+        current = changes.get(head, getattr(config, head))
+        if dataclasses.is_dataclass(current) and isinstance(value, dict):
+            value = with_overrides(current, **value)
+        changes[head] = value
+    for head, items in nested.items():
+        changes[head] = _apply(changes.get(head, getattr(config, head)), items)
+    return dataclasses.replace(config, **changes)  # type: ignore[type-var]  # (C is a dataclass)

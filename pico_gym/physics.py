@@ -355,7 +355,9 @@ class Physics:
         """Drive with a body-frame twist for `duration_s` (a whole number of sub-steps).
 
         Args:
-            vx, vy, w: the twist the ground gives the robot (body frame).
+            vx: the twist the ground gives the robot (body frame), forward [m/s] ...
+            vy: ... to the left [m/s] ...
+            w: ... and turning counter-clockwise [rad/s].
             duration_s: how long.
             clearance_m: the footprint's current distance to the nearest solid geometry; when it
                 exceeds the sweep plus the contact skin (and no acceleration limit is set), the

@@ -114,11 +114,12 @@ def render_map_png(world: Map, path: str | os.PathLike[str], size_px: int = CANV
 
 
 def save_gif(frames: list[np.ndarray], path: str | os.PathLike[str], fps: float, scale: float = 0.5) -> None:
-    """Write RGB frames as an animated GIF (downscaled by `scale` to keep it small)."""
+    """Write RGB frames as an animated GIF (downscaled by `scale` to keep it small). A frame lasts
+    at least 20 ms (browsers show shorter ones for 100 ms)."""
     from PIL import Image
 
     images = [Image.fromarray(f).resize((int(f.shape[1] * scale), int(f.shape[0] * scale))) for f in frames]
-    images[0].save(path, save_all=True, append_images=images[1:], duration=int(1000 / fps), loop=0)
+    images[0].save(path, save_all=True, append_images=images[1:], duration=max(20, int(1000 / fps)), loop=0)
 
 
 def _scale_bar(surface: Any, view: View) -> None:

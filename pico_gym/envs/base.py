@@ -9,6 +9,7 @@ differs between challenges: the episode's scene and start, success, reward terms
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 from collections.abc import Callable
@@ -143,6 +144,9 @@ class EnvConfig:
         physics: engine settings.
         task: the challenge's rules and rewards: the task's own config dataclass (e.g.
             `EscapeTaskConfig`, `HospitalTaskConfig`); each env supplies its default.
+        internal_pose: add the true pose to the observation (`obs["internal_pose"]`, x, y, theta,
+            map frame): the course simulator's `provide_internal_pose`. Privileged: the course
+            offered it, the challenges did not; off by default.
     """
 
     dt_s: float = 0.1
@@ -151,9 +155,12 @@ class EnvConfig:
     odometry: OdometryConfig = field(default_factory=OdometryConfig)
     physics: PhysicsConfig = field(default_factory=PhysicsConfig)
     task: Any = None
+    internal_pose: bool = False
 
     def __post_init__(self) -> None:
         number("dt_s", self.dt_s, 0.0, 1.0, lo_open=True, unit=" s")
+        if not isinstance(self.internal_pose, bool):
+            raise ValueError(f"internal_pose must be True or False, got {self.internal_pose!r}")
         self.physics.check_solid(self.robot.max_speed_mps, self.robot.max_turn_rate_radps, self.robot.circumradius_m)
         substeps = self.dt_s / self.physics.substep_s
         if abs(substeps - round(substeps)) > 1e-6:
@@ -172,7 +179,7 @@ class EnvConfig:
         """
         base = config or EnvConfig(task=task)
         if base.task is None and task is not None:
-            base = EnvConfig(base.dt_s, base.robot, base.lrf, base.odometry, base.physics, task)
+            base = EnvConfig(base.dt_s, base.robot, base.lrf, base.odometry, base.physics, task, base.internal_pose)
         return with_overrides(base, **overrides)
 
 
@@ -242,6 +249,10 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
                 ),
             }
         )
+        if config.internal_pose:
+            spaces = dict(self.observation_space.spaces)
+            spaces["internal_pose"] = spaces["odom"]
+            self.observation_space = gym.spaces.Dict(spaces)
         extra_low, extra_high = task.action_extras
         self._n_extras = len(extra_low)
         self.action_space: gym.spaces.Box = gym.spaces.Box(
@@ -505,7 +516,10 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         return clearance
 
     def _observation(self) -> dict[str, np.ndarray]:
-        return {"lrf": self.last_scan, "odom": np.array(self.odometry.pose, dtype=np.float32)}
+        obs = {"lrf": self.last_scan, "odom": np.array(self.odometry.pose, dtype=np.float32)}
+        if self.config.internal_pose:
+            obs["internal_pose"] = np.array(self._pose, dtype=np.float32)
+        return obs
 
     def _info(self, reward_terms: dict[str, float], reason: str | None, success: bool, cost: float) -> dict[str, Any]:
         assert reason is None or reason in self.task.termination_reasons
@@ -723,11 +737,34 @@ class PicoMapEnv(PicoEnv):
         self.check_options(options)
         options = with_family(self.env_id, self.families, options)
         fixed = resolve_map(map, map_path)
+        self.sim_config = None
+        if options.get("sim_config") is not None:
+            from pico_gym.world.sim_config import read_sim_config, with_sim_config
+
+            self.sim_config = read_sim_config(options.pop("sim_config"))
+            if self.sim_config.enable_taco:
+                raise ValueError(
+                    f"{self.sim_config.source}: enable_taco: true asks for two robots; play it with "
+                    f'pico_gym.parallel_env("{self.env_id}", sim_config=...) (the multi extra)'
+                )
+            fixed = with_sim_config(fixed, self.sim_config)
+            options = {**self.sim_config.env_options(), **options}
+            if not self.sim_config.objects and "n_movers" in {f.name for f in dataclasses.fields(self.task_config)}:
+                options.setdefault("n_movers", (0, 0))  # (the config's objects are the world's people: none)
+        options.pop("sim_config", None)
         env_config = EnvConfig.make(config, task=self.task_config(), **options)
         if not isinstance(env_config.task, self.task_config):
             needs = self.task_config.__name__
             raise TypeError(f"{self.env_id} needs a {needs}, got {type(env_config.task).__name__}")
         super().__init__(self.make_task(env_config, fixed), env_config, render_mode)
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        obs, info = super().reset(seed=seed, options=options)
+        if self.sim_config is not None:
+            info["sim_config"] = self.sim_config.report()
+        return obs, info
 
     @classmethod
     def check_options(cls, options: dict[str, Any]) -> None:

@@ -77,8 +77,14 @@ class PicoEscapeEnv(PicoMapEnv):
     `reset(options=...)` accepts `start_pose` only; an unknown key raises ValueError.
     Stepping an episode that has ended raises RuntimeError (call reset).
 
+    ## Families
+    `gym.make("PicoEscape-v0", family=NAME)` draws from a harder generator setting (options given
+    explicitly still win): `"cluttered"`, rooms with 3-5 boxes; `"narrow"`, corridors 0.5-0.6 m
+    wide. Each is a suite of `pico-gym bench` and `compare` with fixed dev and test seeds
+    (docs/benchmarks.md).
+
     ## Version History
-    - v0: initial version.
+    - v0: initial version; `family=` added (default episodes unchanged).
     """
 
     env_id = "PicoEscape-v0"

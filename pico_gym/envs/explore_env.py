@@ -78,8 +78,15 @@ class PicoExploreEnv(PicoMapEnv):
     a map needs `parking_wall` ([[x1, y1], [x2, y2]]) and may have `object` (a polygon); any
     config field by name, e.g. `arrival="announce"`, `phase_time_limit_s=300`, `n_rooms=(5, 6)`.
 
+    ## Families
+    `gym.make("PicoExplore-v0", family=NAME)`: `"comb"`, rooms off a side corridor that branches
+    from the hallway, like the teeth of a comb; `"deep-L"`, an L hallway with its rooms at the
+    far end of its far leg; `"nested"`, rooms in rows behind one another, one reached through
+    two others. Each is a suite of `pico-gym bench` and `compare` with fixed dev and test seeds
+    (docs/benchmarks.md).
+
     ## Version History
-    - v0: initial version.
+    - v0: initial version; `family=` added (default episodes unchanged).
     """
 
     env_id = "PicoExplore-v0"

@@ -94,8 +94,18 @@ class PicoHospitalEnv(PicoMapEnv):
     e.g. `n_cabinets=4`, `n_boxes=(2, 2)`, `n_closed_doors=(1, 1)`, `n_movers=(1, 1)`,
     `arrival="announce"`, `noise_m=0.02`, `random_start=True` (odometry at a random pose).
 
+    ## Families
+    `gym.make("PicoHospital-v0", family=NAME)`: `"narrow"`, a hallway 1.0-1.2 m and doors
+    0.55-0.7 m wide with 1-2 people walking the hallway towards the start; `"crowded"`, 2-3 people
+    and 2-3 boxes. Each is a suite of `pico-gym bench` and `compare` with fixed dev and test
+    seeds (docs/benchmarks.md). The counts an episode draws (people, boxes, closed doors) are met:
+    a generated hospital that cannot hold them is drawn again, and on a fixed map a request that
+    cannot be met after 20 draws raises ValueError naming the option.
+
     ## Version History
-    - v0: initial version.
+    - v0: initial version; `family=` added; `n_closed_doors` names the count (`closed_doors`
+      stays the reset option's list); counts drawn are met or refused, which redrew the ~3 % of
+      default generated-hospital episodes that used to get fewer people, boxes or doors than drawn.
     """
 
     env_id = "PicoHospital-v0"

@@ -6,7 +6,9 @@ bumping; a trial ends on a bump, or after 30 s without sensible movement; 5 minu
 
 from __future__ import annotations
 
+import dataclasses
 import math
+import warnings
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
@@ -28,8 +30,10 @@ from pico_gym.types import FloatArray, Pose
 from pico_gym.validate import flag, number
 from pico_gym.world import geometry
 from pico_gym.world.escape_room import EscapeRoomConfig, generate_escape_room, sample_start_pose
+from pico_gym.world.finish import auto_finish
 from pico_gym.world.grid import GeodesicField, Grid, geodesic_field
 from pico_gym.world.map import Map, MapError
+from pico_gym.world.movers import Movers
 from pico_gym.world.scene import Scene
 
 # Competition rules: 30 s without sensible movement ends a trial; 5 minutes per team.
@@ -110,6 +114,9 @@ class EscapeTaskConfig:
         rewards: weights of the reward terms.
         room: ranges of the escape-room generator.
         geodesic_resolution_m: cell size of the geodesic distance field [m].
+        finish: "auto" finds a fixed map's finish line from its walls (`pico_gym.world.finish`:
+            across the corridor, 3 m past its mouth as the rules say); None (default) takes the
+            map's own `finish`, and finds one for a heightmap map that has none (a course image).
     """
 
     collision: Literal["terminate", "continue"] = "terminate"
@@ -122,8 +129,11 @@ class EscapeTaskConfig:
     rewards: RewardWeights = field(default_factory=RewardWeights)
     room: EscapeRoomConfig = field(default_factory=EscapeRoomConfig)
     geodesic_resolution_m: float = 0.05
+    finish: str | None = None
 
     def __post_init__(self) -> None:
+        if self.finish not in (None, "auto"):
+            raise ValueError(f"finish must be 'auto' or None (the map's own), got {self.finish!r}")
         if self.collision not in ("terminate", "continue"):
             raise ValueError(f"collision must be 'terminate' or 'continue', got {self.collision!r}")
         number("EscapeTaskConfig.time_limit_s", self.time_limit_s, 0.0, 1e6, lo_open=True, unit=" s")
@@ -236,9 +246,8 @@ class EscapeTask(ConfiguredTask):
     goal_name = "the finish line"
 
     def __init__(self, config: EscapeTaskConfig, robot: RobotConfig, fixed_map: Map | None = None) -> None:
-        if fixed_map is not None and fixed_map.finish is None:
-            where = fixed_map.source or fixed_map.name
-            raise ValueError(f"{where}: an escape map needs a 'finish' line")
+        if fixed_map is not None and (config.finish == "auto" or fixed_map.finish is None):
+            fixed_map = _with_finish(fixed_map, config.finish == "auto")
         self.config = config
         self.robot = robot
         self.fixed_map = fixed_map
@@ -286,7 +295,9 @@ class EscapeTask(ConfiguredTask):
         self._line = (ax, ay, bx, by, p[0], p[1], n[0], n[1])  # plain floats for the step
         self._out = False
         # Every door of an escape map is closed (a door leaf is part of the room).
-        scene = Scene(world, closed_doors=tuple(range(len(world.door_segments))))
+        # (a map's movers walk here too: a course config's objects, `sim_config=`)
+        movers = Movers(list(world.movers)) if world.movers else Movers(())
+        scene = Scene(world, closed_doors=tuple(range(len(world.door_segments))), movers=movers)
         return Episode(scene, start, shortest, extra={"field": field, "room": room})
 
     def _check_map(self, world: Map) -> None:
@@ -464,3 +475,26 @@ class EscapeTask(ConfiguredTask):
         if idle_s >= self.config.idle_time_s:
             return "idle"
         return None
+
+
+def _with_finish(world: Map, asked: bool) -> Map:
+    """The map with its finish line found from its walls (`finish="auto"`, or a heightmap map
+    without one: a course image); a drawn map without one is refused, saying how to get one."""
+    where = str(world.source or world.name)
+    if not asked and world.heightmap is None:
+        raise ValueError(
+            f"{where}: an escape map needs a 'finish' line ([[x1, y1], [x2, y2]] across the corridor), "
+            'or finish="auto" to find it from the walls'
+        )
+    if world.start_pose is not None:
+        start = (world.start_pose.x, world.start_pose.y)
+    elif world.start_area:
+        cx, cy = world.polygon(world.start_area[0]).mean(axis=0)
+        start = (float(cx), float(cy))
+    else:
+        x0, y0, x1, y1 = world.bounds
+        start = (0.5 * (x0 + x1), 0.5 * (y0 + y1))
+    line, warning = auto_finish(world.solid_segments(), start, where)
+    if warning is not None:
+        warnings.warn(warning, stacklevel=4)
+    return dataclasses.replace(world, finish=line)

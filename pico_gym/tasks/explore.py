@@ -934,6 +934,13 @@ class ExploreMetrics(EpisodeMetrics):
     room seen when it parked), coverage, the parking error and time, and the IoU of the agent's
     map (`map_belief()`, if it hands one over) with the true free space."""
 
+    columns = (
+        ("parked", lambda s: f"{100 * s.metrics['parked_rate']:.1f} %"),
+        ("found, of the parked", lambda s: f"{100 * s.metrics['found_of_parked_rate']:.1f} %"),
+        ("every room seen", lambda s: f"{100 * s.metrics['rooms_covered_rate']:.1f} %"),
+        ("timeouts, 95 % seen", lambda s: f"{s.metrics['covered_timeouts']}"),
+    )
+
     def finish(self, env: Any, info: dict[str, Any], agent: Any) -> dict[str, Any]:
         error = info["parking_error"]
         map_belief = getattr(agent, "map_belief", None)
@@ -964,6 +971,10 @@ class ExploreMetrics(EpisodeMetrics):
             "map_iou_median": float(np.median(ious)) if ious else math.nan,
             "map_iou_min": float(min(ious)) if ious else math.nan,
             "map_iou_at_least_0_9_rate": sum(v >= 0.9 for v in ious) / len(ious) if ious else math.nan,
+            # episodes that timed out though the robot had seen 95 % of the building
+            "covered_timeouts": sum(
+                r.termination_reason == "timeout" and r.metrics["coverage"] >= 0.95 for r in records
+            ),
         }
 
     @classmethod

@@ -11,6 +11,7 @@ blobs of grey 51..204 are doors. Pixel edges between obstacle and floor are merg
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -298,6 +299,7 @@ def heightmap_geometry(
     origin: tuple[float, float] | None = None,
     simplify_m: float | None = None,
     free_occupancy: float = FREE_OCCUPANCY,
+    yaw: float = 0.0,
 ) -> HeightmapGeometry:
     """Convert a grey heightmap into wall segments in the map frame.
 
@@ -311,6 +313,8 @@ def heightmap_geometry(
             pixel staircases of curved or slanted outlines with segments within that distance of
             the pixel outline (fewer segments: a faster LRF).
         free_occupancy: pixels whose occupancy (255 - v) / 255 is below this are floor.
+        yaw: with `origin`, the image turned by this about the lower-left pixel corner (a ROS
+            map's origin yaw).
 
     Returns:
         The visible, low and door segments.
@@ -332,9 +336,14 @@ def heightmap_geometry(
         if origin is None:
             x = (rows / 2.0 - r) * resolution_m
             y = (cols / 2.0 - c) * resolution_m
-        else:
+        elif yaw == 0.0:
             x = origin[0] + c * resolution_m
             y = origin[1] + (rows - r) * resolution_m
+        else:
+            u, v = c * resolution_m, (rows - r) * resolution_m
+            cy, sy = math.cos(yaw), math.sin(yaw)
+            x = origin[0] + cy * u - sy * v
+            y = origin[1] + sy * u + cy * v
         return np.column_stack([x[:, 0], y[:, 0], x[:, 1], y[:, 1]])
 
     doors_world = tuple(to_world(_boundary_segments(mask) + [c0, r0, c0, r0]) for r0, c0, mask in doors)
@@ -344,18 +353,22 @@ def heightmap_geometry(
     seen = to_world(_simplified_segments(visible, tolerance_px))
     # The fitted loops run one way round their pixels; the placement may mirror them. Direct them
     # so the free side is on the left, checked on the image itself.
-    if len(seen) and not _free_on_left(seen, visible, lambda xy: to_pixel(xy, rows, cols, resolution_m, origin)):
+    if len(seen) and not _free_on_left(seen, visible, lambda xy: to_pixel(xy, rows, cols, resolution_m, origin, yaw)):
         seen = seen[:, [2, 3, 0, 1]]
     return HeightmapGeometry(seen, to_world(_simplified_segments(low, tolerance_px)), doors_world, True)
 
 
 def to_pixel(
-    xy: np.ndarray, rows: int, cols: int, resolution_m: float, origin: tuple[float, float] | None
+    xy: np.ndarray, rows: int, cols: int, resolution_m: float, origin: tuple[float, float] | None, yaw: float = 0.0
 ) -> np.ndarray:
     """(row, col) of the pixels holding map-frame points (n, 2): the inverse of the placement."""
     x, y = xy[:, 0], xy[:, 1]
     if origin is None:
         r, c = rows / 2.0 - x / resolution_m, cols / 2.0 - y / resolution_m
+    elif yaw != 0.0:
+        dx, dy = x - origin[0], y - origin[1]
+        u, v = math.cos(yaw) * dx + math.sin(yaw) * dy, -math.sin(yaw) * dx + math.cos(yaw) * dy
+        c, r = u / resolution_m, rows - v / resolution_m
     else:
         c, r = (x - origin[0]) / resolution_m, rows - (y - origin[1]) / resolution_m
     return np.column_stack([np.floor(r), np.floor(c)]).astype(np.int64)

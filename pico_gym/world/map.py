@@ -21,7 +21,22 @@ import numpy as np
 from pico_gym.robot import PICO_OUTLINE
 from pico_gym.types import FloatArray, Pose, Segments
 from pico_gym.world import geometry
-from pico_gym.world.heightmap import COURSE_RESOLUTION_M, HeightmapGeometry, ImageError, heightmap_geometry, read_grey
+from pico_gym.world.heightmap import (
+    COURSE_RESOLUTION_M,
+    MAX_IMAGE_PIXELS,
+    HeightmapGeometry,
+    ImageError,
+    heightmap_geometry,
+    read_grey,
+)
+from pico_gym.world.map_server import (
+    MapServerError,
+    MapServerSettings,
+    course_grey,
+    occupancy_values,
+    read_channels,
+    read_metadata,
+)
 from pico_gym.world.movers import MoverRecord, mover_record
 
 FORMAT_VERSION = 1
@@ -40,7 +55,10 @@ _KNOWN_KEYS = {
     "obstacles",
     "movers",
     "heightmap",
+    "map_server",
+    "simulator_frame",
 }
+YAML_SUFFIXES = (".yaml", ".yml")
 
 
 # A budget: a map's points may span at most this much on either axis [m] (its grids grow with the
@@ -54,12 +72,16 @@ class MapError(ValueError):
 
 @dataclass(frozen=True, eq=False)
 class Heightmap:
-    """A heightmap reference: the image path as written in the file, and its placement."""
+    """A heightmap reference: the image path (relative to the map file's folder), its placement
+    and, for a ROS map_server map, how its pixels are read (`map_server`)."""
 
     image: str
     resolution: float = COURSE_RESOLUTION_M
     origin: tuple[float, float] | None = None
     simplify_m: float | None = None
+    yaw: float = 0.0
+    map_server: MapServerSettings | None = None
+    yaml: str | None = None  # the map_server YAML, as the map file names it
 
 
 @dataclass(frozen=True, eq=False)
@@ -83,6 +105,14 @@ class Map:
     heightmap: Heightmap | None = None
     extra: dict[str, Any] = field(default_factory=dict)
     source: Path | None = None
+    simulator_frame: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    def from_simulator(self, pose: tuple[float, float, float]) -> Pose:
+        """A pose in the course simulator's frame (its config's poses) in the map frame."""
+        fx, fy, fth = self.simulator_frame
+        c, s = math.cos(fth), math.sin(fth)
+        x, y, th = pose
+        return Pose(fx + c * x - s * y, fy + s * x + c * y, math.remainder(th + fth, 2 * math.pi))
 
     # --- geometry -------------------------------------------------------------------------
     @cached_property
@@ -94,13 +124,17 @@ class Map:
         where = self.source or path
         if not path.is_file():
             raise MapError(f"{where}: heightmap.image: file not found: {path}")
-        try:
-            grey = read_grey(path)
-        except ImageError as error:
-            raise MapError(f"{where}: heightmap.image {path}: {error}") from error
         hm = self.heightmap
         try:
-            return heightmap_geometry(grey, hm.resolution, hm.origin, hm.simplify_m)
+            if hm.map_server is None:
+                grey = read_grey(path)
+            else:
+                pixels, has_alpha = read_channels(path, MAX_IMAGE_PIXELS)
+                grey = course_grey(occupancy_values(pixels, has_alpha, hm.map_server), hm.map_server.unknown)
+        except (ImageError, MapServerError) as error:
+            raise MapError(f"{where}: {'map_server' if hm.map_server else 'heightmap'}.image {path}: {error}") from None
+        try:
+            return heightmap_geometry(grey, hm.resolution, hm.origin, hm.simplify_m, yaw=hm.yaw)
         except ImageError as error:
             raise MapError(f"{where}: heightmap.image {path}: {error}") from None
 
@@ -277,16 +311,23 @@ def _polygons(value: Any, n_points: int, where: Any, key: str) -> tuple[np.ndarr
     return tuple(polys)
 
 
-def map_from_dict(data: Any, source: Path | None = None) -> Map:
-    """Build a `Map` from the parsed JSON of a map file; `source` is used in messages and paths."""
+def map_from_dict(data: Any, source: Path | None = None, allow_outside: bool = False) -> Map:
+    """Build a `Map` from the parsed JSON of a map file; `source` is used in messages and paths.
+
+    Files the map references (a heightmap or map_server image, a map_server YAML, a mover config)
+    must lie in the map file's folder or below it, unless `allow_outside`."""
     where = source or "<map>"
     if not isinstance(data, dict):
         raise MapError(f"{where}: a map file must hold a JSON object, got {type(data).__name__}")
     version = data.get("version", FORMAT_VERSION)
     if version != FORMAT_VERSION:
         raise _fail(where, "version", f"unsupported version {version!r} (this pico-gym reads {FORMAT_VERSION})")
-    if "walls" not in data and "heightmap" not in data:
-        raise MapError(f"{where}: missing key 'walls' (a map needs 'walls' with 'points', or a 'heightmap')")
+    if "walls" not in data and "heightmap" not in data and "map_server" not in data:
+        raise MapError(
+            f"{where}: missing key 'walls' (a map needs 'walls' with 'points', a 'heightmap' or a 'map_server' map)"
+        )
+    if "heightmap" in data and "map_server" in data:
+        raise _fail(where, "map_server", "give a 'heightmap' or a 'map_server' map, not both")
     points = _points(data, where)
     n = len(points)
     start_key = "start_area" if "start_area" in data else "start"
@@ -294,6 +335,7 @@ def map_from_dict(data: Any, source: Path | None = None) -> Map:
     if not isinstance(name, str):
         raise _fail(where, "name", f"expected a string, got {name!r}")
     start_pose = _start_pose(data["start_pose"], where) if "start_pose" in data else None
+    frame = _frame(data["simulator_frame"], where, "simulator_frame") if "simulator_frame" in data else (0.0, 0.0, 0.0)
     result = Map(
         points=points,
         walls=_pairs(data.get("walls", []), n, where, "walls"),
@@ -304,14 +346,15 @@ def map_from_dict(data: Any, source: Path | None = None) -> Map:
         finish=_finish(data["finish"], where) if "finish" in data else None,
         start_pose=start_pose,
         obstacles=_obstacles(data.get("obstacles", []), where),
-        movers=tuple(_movers(data.get("movers", []), source, where)),
-        heightmap=_heightmap(data["heightmap"], where) if "heightmap" in data else None,
+        movers=tuple(_movers(data.get("movers", []), source, where, allow_outside, frame)),
+        heightmap=_image_reference(data, source, where, allow_outside),
         extra={k: v for k, v in data.items() if k not in _KNOWN_KEYS},
         source=source,
+        simulator_frame=frame,
     )
     result.wall_segments  # noqa: B018  (reads the heightmap now, so its errors surface at load time)
     if start_pose is not None:
-        _check_start_pose(result, where)
+        check_start_pose(result, where)
     return result
 
 
@@ -367,6 +410,62 @@ def _obstacles(value: Any, where: Any) -> tuple[FloatArray, ...]:
     return tuple(obstacles)
 
 
+def _inside(base: Path, path: Path, where: Any, key: str, allow_outside: bool) -> Path:
+    """`path` resolved; refused unless it lies in `base` (the map file's folder) or below it."""
+    resolved = path.resolve()
+    if not allow_outside and not resolved.is_relative_to(base.resolve()):
+        raise _fail(
+            where,
+            key,
+            f"{path} is outside the map file's folder {base.resolve()}: a map may reference files in its own "
+            "folder only (load_map(path, allow_outside=True) lifts that for a map you trust)",
+        )
+    return resolved
+
+
+def _image_reference(data: dict[str, Any], source: Path | None, where: Any, allow_outside: bool) -> Heightmap | None:
+    """The map's image: a course heightmap (`heightmap`) or a ROS map_server map (`map_server`)."""
+    base = source.parent if source is not None else Path.cwd()
+    if "heightmap" in data:
+        hm = _heightmap(data["heightmap"], where)
+        _inside(base, base / hm.image, where, "heightmap.image", allow_outside)
+        return hm
+    if "map_server" in data:
+        return _map_server(data["map_server"], base, where, allow_outside)
+    return None
+
+
+def _map_server(value: Any, base: Path, where: Any, allow_outside: bool) -> Heightmap:
+    """`"map_server": "map.yaml"` or `{"yaml": "map.yaml", "frame": "simulator" | "ros", "unknown":
+    "door" | "wall" | "free", "simplify_m": d}`: a ROS map_server map (`pico_gym.world.map_server`)."""
+    if isinstance(value, str):
+        value = {"yaml": value}
+    if not isinstance(value, dict) or not isinstance(value.get("yaml"), str):
+        raise _fail(where, "map_server", "expected 'map.yaml' or {'yaml': 'map.yaml', 'frame': 'simulator'}")
+    extra = sorted(set(value) - {"yaml", "frame", "unknown", "simplify_m"})
+    if extra:
+        raise _fail(where, f"map_server.{extra[0]}", "unknown key; the keys are yaml, frame, unknown, simplify_m")
+    yaml_path = _inside(base, base / value["yaml"], where, "map_server.yaml", allow_outside)
+    if not yaml_path.is_file():
+        raise _fail(where, "map_server.yaml", f"file not found: {yaml_path}")
+    try:
+        settings = read_metadata(yaml_path, value.get("frame", "simulator"), value.get("unknown", "door"))
+    except MapServerError as error:
+        raise MapError(f"{where}: map_server: {error}") from None
+    image = _inside(base, yaml_path.parent / settings.image, where, "map_server image", allow_outside)
+    if not image.is_file():
+        raise _fail(where, "map_server", f"{yaml_path}: image: file not found: {image}")
+    simplify = None
+    if value.get("simplify_m") is not None:
+        simplify = _number(value["simplify_m"], where, "map_server.simplify_m")
+        if not 0 < simplify <= settings.resolution:
+            raise _fail(where, "map_server.simplify_m", f"must be in (0, {settings.resolution}], got {simplify}")
+    x, y, yaw = settings.placement
+    return Heightmap(
+        os.path.relpath(image, base.resolve()), settings.resolution, (x, y), simplify, yaw, settings, value["yaml"]
+    )
+
+
 def _heightmap(hm: Any, where: Any) -> Heightmap:
     """A heightmap reference {"image", "resolution", "origin", "simplify_m"}."""
     if not isinstance(hm, dict) or not isinstance(hm.get("image"), str):
@@ -383,7 +482,21 @@ def _heightmap(hm: Any, where: Any) -> Heightmap:
     return Heightmap(hm["image"], resolution, origin, simplify)
 
 
-def _movers(value: Any, source: Path | None, where: Any) -> tuple[MoverRecord, ...]:
+def _frame(value: Any, where: Any, key: str) -> tuple[float, float, float]:
+    """[x, y, yaw]: a frame's origin and heading in the map."""
+    if not (isinstance(value, list) and len(value) == 3):
+        raise _fail(where, key, f"expected [x, y, yaw], got {value!r}")
+    x, y, yaw = (_number(v, where, f"{key}[{i}]") for i, v in enumerate(value))
+    return (x, y, yaw)
+
+
+def _movers(
+    value: Any,
+    source: Path | None,
+    where: Any,
+    allow_outside: bool = False,
+    frame: tuple[float, float, float] = (0.0, 0.0, 0.0),
+) -> tuple[MoverRecord, ...]:
     """The `movers` key: course records in the map frame, or a course config file placed by a frame.
 
     `{"config": "hospital_2021_config.json", "frame": [x, y, yaw]}` reads the course simulator's
@@ -391,7 +504,7 @@ def _movers(value: Any, source: Path | None, where: Any) -> tuple[MoverRecord, .
     frame; `frame` is the course frame's origin and heading in the map (default: the identity).
     """
     if isinstance(value, dict):
-        return _movers_from_config(value, source, where)
+        return _movers_from_config(value, source, where, allow_outside, frame)
     if not isinstance(value, list):
         raise _fail(where, "movers", f"expected a list of moving-object records, got {type(value).__name__}")
     out = []
@@ -403,12 +516,19 @@ def _movers(value: Any, source: Path | None, where: Any) -> tuple[MoverRecord, .
     return tuple(out)
 
 
-def _movers_from_config(value: dict[str, Any], source: Path | None, where: Any) -> tuple[MoverRecord, ...]:
-    """`{"config": "file.json", "frame": [x, y, yaw]}`: a course config's objects, placed."""
+def _movers_from_config(
+    value: dict[str, Any],
+    source: Path | None,
+    where: Any,
+    allow_outside: bool = False,
+    default_frame: tuple[float, float, float] = (0.0, 0.0, 0.0),
+) -> tuple[MoverRecord, ...]:
+    """`{"config": "file.json", "frame": [x, y, yaw]}`: a course config's objects, placed (without
+    `frame`: by the map's `simulator_frame`)."""
     if not isinstance(value.get("config"), str):
         raise _fail(where, "movers", "expected a list of records or {'config': 'file.json', 'frame': [x, y, yaw]}")
     base = source.parent if source is not None else Path.cwd()
-    path = base / value["config"]
+    path = _inside(base, base / value["config"], where, "movers.config", allow_outside)
     try:
         config = json.loads(path.read_text())
     except OSError as error:
@@ -417,10 +537,7 @@ def _movers_from_config(value: dict[str, Any], source: Path | None, where: Any) 
         raise _fail(where, "movers.config", f"{path} is not valid JSON: {error.msg} at line {error.lineno}") from None
     if not isinstance(config, dict) or not isinstance(config.get("objects", []), list):
         raise _fail(where, "movers.config", f"{path}: expected a course config with a list 'objects'")
-    frame = value.get("frame", [0.0, 0.0, 0.0])
-    if not (isinstance(frame, list) and len(frame) == 3):
-        raise _fail(where, "movers.frame", f"expected [x, y, yaw], got {frame!r}")
-    fx, fy, fth = (_number(v, where, f"movers.frame[{i}]") for i, v in enumerate(frame))
+    fx, fy, fth = _frame(value["frame"], where, "movers.frame") if "frame" in value else default_frame
     c, s = math.cos(fth), math.sin(fth)
     out = []
     for k, raw in enumerate(config.get("objects", [])):
@@ -446,7 +563,8 @@ def _movers_from_config(value: dict[str, Any], source: Path | None, where: Any) 
     return tuple(out)
 
 
-def _check_start_pose(world: Map, where: Any) -> None:
+def check_start_pose(world: Map, where: Any) -> None:
+    """Refuse a map whose start pose puts the robot's footprint into a wall (MapError naming `where`)."""
     if world.start_pose is None:
         return
     footprint = geometry.transform_points(world.start_pose, PICO_OUTLINE)
@@ -456,24 +574,31 @@ def _check_start_pose(world: Map, where: Any) -> None:
         raise _fail(where, "start_pose", f"the robot at ({x:.3f}, {y:.3f}, {th:.3f}) overlaps a wall")
 
 
-def load_map(path: str | os.PathLike[str]) -> Map:
-    """Load a map file: pico-gym/course JSON, or a course heightmap image (PGM/PNG/...).
+def load_map(path: str | os.PathLike[str], allow_outside: bool = False) -> Map:
+    """Load a map file: pico-gym/course JSON, a course heightmap image (PGM/PNG/...), or a ROS
+    map_server metadata YAML (read as the course simulator reads it: `pico_gym.world.map_server`).
+
+    Files a map references must lie in its folder or below it, unless `allow_outside`.
 
     Raises:
         MapError: naming the file and the key or index at fault.
     """
     path = Path(path)
+    if path.is_dir():
+        raise MapError(f"{path}: a folder, not a map file")
     if not path.is_file():
         raise MapError(f"{path}: no such map file")
     if path.suffix.lower() in IMAGE_SUFFIXES:
         return map_from_dict({"name": path.stem, "heightmap": {"image": path.name}}, path)
+    if path.suffix.lower() in YAML_SUFFIXES:
+        return map_from_dict({"name": path.stem, "map_server": path.name}, path)
     try:
         data = json.loads(path.read_text())
     except UnicodeDecodeError as error:
         raise MapError(f"{path}: not a JSON file (not text: {error.reason})") from None
     except json.JSONDecodeError as error:
         raise MapError(f"{path}: not valid JSON: {error.msg} at line {error.lineno}, column {error.colno}") from None
-    return map_from_dict(data, path)
+    return map_from_dict(data, path, allow_outside)
 
 
 def map_to_dict(world: Map, relative_to: Path | None = None) -> dict[str, Any]:
@@ -497,13 +622,28 @@ def map_to_dict(world: Map, relative_to: Path | None = None) -> dict[str, Any]:
         data["obstacles"] = [{"polygon": p.tolist()} for p in world.obstacles]
     if world.movers:
         data["movers"] = [m.to_dict() for m in world.movers]
+    if world.simulator_frame != (0.0, 0.0, 0.0):
+        data["simulator_frame"] = list(world.simulator_frame)
     if world.heightmap is not None:
-        data["heightmap"] = _heightmap_to_dict(world, world.heightmap, relative_to)
+        key = "map_server" if world.heightmap.map_server is not None else "heightmap"
+        data[key] = _heightmap_to_dict(world, world.heightmap, relative_to)
     data.update(world.extra)
     return data
 
 
 def _heightmap_to_dict(world: Map, heightmap: Heightmap, relative_to: Path | None) -> dict[str, Any]:
+    if heightmap.map_server is not None and heightmap.yaml is not None:
+        yaml = heightmap.yaml
+        if world.source is not None and relative_to is not None:
+            yaml = os.path.relpath((world.source.parent / yaml).resolve(), relative_to.resolve())
+        ms: dict[str, Any] = {
+            "yaml": yaml,
+            "frame": heightmap.map_server.frame,
+            "unknown": heightmap.map_server.unknown,
+        }
+        if heightmap.simplify_m is not None:
+            ms["simplify_m"] = heightmap.simplify_m
+        return ms
     image = heightmap.image
     if world.source is not None and relative_to is not None:
         image = os.path.relpath((world.source.parent / image).resolve(), relative_to.resolve())
