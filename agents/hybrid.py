@@ -78,6 +78,8 @@ class HybridConfig:
         escape_people: what the classic part backs away from and watches also holds where the
             tracker last saw each person walking (one paused just behind the robot is in no
             scan); the hybrid's own switch, not `HospitalAgentConfig.escape_people`.
+        classic_near_people_m: while a person tracked walking is within this of the pose estimate,
+            the classic part drives (its yielding), not the policy [m] (0: off).
     """
 
     lookahead_m: float = 1.0
@@ -93,6 +95,7 @@ class HybridConfig:
     walk_in_mps: float = 0.0
     back_budget_m: float = 0.1
     escape_people: bool = True
+    classic_near_people_m: float = 0.0
 
     def __post_init__(self) -> None:
         for name in ("shield", "blind_turn", "recover_turn", "escape_people", "blind_translation"):
@@ -105,6 +108,7 @@ class HybridConfig:
             ("walk_in_mps", 0.0, 5.0, " m/s"),
             ("back_budget_m", 0.0, 10.0, " m"),
             ("blind_memory_s", 0.0, 10.0, " s"),
+            ("classic_near_people_m", 0.0, 10.0, " m"),
         ):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not lo <= value <= hi:
@@ -254,6 +258,14 @@ class HybridAgent(HospitalAgent):
         """The hybrid's own switch (`HybridConfig.escape_people`) decides, not its classic part's."""
         return self.hybrid.escape_people
 
+    def _person_close(self) -> bool:
+        """A person tracked walking within `classic_near_people_m` of the pose estimate."""
+        reach = self.hybrid.classic_near_people_m
+        if reach <= 0.0 or not self.localised or not self.config.track_people:
+            return False
+        here = np.array([self.pose.x, self.pose.y])
+        return any(float(np.hypot(*(t.position - here))) < reach for t in self.world.tracker.moving())
+
     # --- the seams the training wrapper drives ----------------------------------------------------
     def observe(self, obs: dict[str, np.ndarray]) -> bool:
         """Take in an observation and run the classic part (its command is `self.command`);
@@ -263,6 +275,7 @@ class HybridAgent(HospitalAgent):
             self._leg, self._recoveries, self._leg_start = self.done, 0, self.steps
         self.command = self._decide(self._near)
         driving = self.state is State.NAVIGATE and bool(self.route.path) and not self.classic_leg
+        driving = driving and not self._person_close()
         self._drove = driving
         if driving:
             here = np.array([self.pose.x, self.pose.y])

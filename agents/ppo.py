@@ -16,6 +16,7 @@ pickling off.
 from __future__ import annotations
 
 import json
+import warnings
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -86,6 +87,22 @@ def _read_metadata(path: Path) -> tuple[LearningConfig, dict[str, Any]]:
     return learning, meta
 
 
+_ZIP_WARNED = False
+
+
+def _warn_zip_runs_code(path: Path) -> None:
+    """Say once per process that loading a stable-baselines3 zip runs code (it holds pickles)."""
+    global _ZIP_WARNED
+    if not _ZIP_WARNED:
+        _ZIP_WARNED = True
+        warnings.warn(
+            f"{path}: a stable-baselines3 zip holds pickles, and loading one runs code: load only files from a "
+            "source you trust (a policy's .npz loads without that risk)",
+            UserWarning,
+            stacklevel=3,
+        )
+
+
 def load_policy(path: str | Path) -> tuple[Any, LearningConfig, dict[str, Any]]:
     """Load a stable-baselines3 policy saved by `save_policy`: (model, learning config, metadata).
 
@@ -95,6 +112,7 @@ def load_policy(path: str | Path) -> tuple[Any, LearningConfig, dict[str, Any]]:
     if not path.is_file():
         raise FileNotFoundError(f"no PPO policy at {path}")
     learning, meta = _read_metadata(path)
+    _warn_zip_runs_code(path)
     sb3 = _sb3()
     import torch
 

@@ -12,6 +12,8 @@ from pico_gym.registry import TASKS, BenchRow, Suite, SuiteGroup, TaskInfo, regi
 __version__ = "0.1.0"
 
 _BUSY_2019 = {"map": "hospital_2019", "n_boxes": (2, 2), "n_movers": (1, 1), "n_closed_doors": (1, 1)}
+_DOOR = {"n_closed_doors": (1, 1)}
+_CROWDED = {"n_boxes": (2, 2), "n_movers": (2, 2), **_DOOR}
 
 
 def _family(name: str, description: str, dev: int, test: int) -> Suite:
@@ -53,6 +55,12 @@ BUILTIN_TASKS = (
             BenchRow("generated hospitals, defaults"),
         ),  # fmt: skip
         lrf_maps=("hospital_2019", "hospital_2021"),
+        walls_rows=(
+            BenchRow("hospital_2019, 2 people, 2 boxes, a closed door", {"map": "hospital_2019", **_CROWDED}),
+            BenchRow("hospital_2021, its cart and person, 2 boxes", {"map": "hospital_2021", "n_boxes": (2, 2)}),
+            BenchRow("generated hospitals, 2-3 people, 2-3 boxes, a closed door", {"family": "crowded", **_DOOR}),
+            BenchRow("generated narrow hospitals, people walking towards the start", {"family": "narrow"}),
+        ),
         suites=(
             Suite("generated", "generated hospitals", (SuiteGroup("generated"),), dev_seeds=200, test_seeds=73_200),
             _family(
@@ -80,6 +88,11 @@ BUILTIN_TASKS = (
         bench_rows=(
             BenchRow("generated 2018 hospitals, defaults"),
             BenchRow("generated 2018 hospitals, collision=continue", {"collision": "continue"}),
+        ),
+        walls_rows=(
+            BenchRow("generated 2018 hospitals"),
+            BenchRow("comb buildings", {"family": "comb"}),
+            BenchRow("nested buildings", {"family": "nested"}),
         ),
         suites=(
             Suite(

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from pico_gym.envs.base import pico_env
+from pico_gym.registry import DEFAULT_ENV_ID
 from pico_gym.sensors.lrf import Lrf, LrfConfig, lrf_ranges
 from pico_gym.timing import EnvRun, interleaved, machine, median_rate, versions
 from pico_gym.types import Pose
@@ -375,23 +376,25 @@ def bench_escape(steps: int, seed: int, repeats: int) -> None:
         print(f"{label:<60} {statistics.median(r):9,.0f} env steps/s  {ratio:5.2f}x one env (aggregate)")
 
 
-def bench_walls(steps_total: int, seed: int) -> int:
-    """Adversarial driving: full speed, spinning, into walls and corners; counts overlaps of the true
-    footprint with anything solid (there must be none: walls are solid at every accepted setting)."""
+def bench_walls(steps_total: int, seed: int, env_id: str = DEFAULT_ENV_ID) -> int:
+    """Adversarial driving: full speed, spinning, into walls, corners, boxes, closed doors and
+    people, and standing still while people walk into the robot; counts the steps after which the
+    true footprint overlaps anything solid, people included (there must be none: everything solid
+    stays so at every accepted setting)."""
     import gymnasium as gym
 
     import pico_gym  # noqa: F401
     from pico_gym.physics import PhysicsConfig
+    from pico_gym.registry import task_info
     from pico_gym.robot import RobotConfig
     from pico_gym.world.catalog import shipped_maps
-    from pico_gym.world.geometry import footprint_clearance
 
     rng = np.random.default_rng(seed)
-    settings: list[tuple[str, dict[str, Any]]] = [
-        ("generated room", {}),
-        ("generated room, 3 obstacles", {"n_obstacles": 3}),
-    ]
-    settings += [(m, {"map": m, "sample_start": True}) for m in shipped_maps() if m.startswith("escape")]
+    info = task_info(env_id)
+    settings = [(row.label, dict(row.env_kwargs)) for row in info.walls_rows]
+    if not settings:
+        settings = [("generated room", {}), ("generated room, 3 obstacles", {"n_obstacles": 3})]
+        settings += [(m, {"map": m, "sample_start": True}) for m in shipped_maps() if m.startswith("escape")]
     robot, physics = RobotConfig(), PhysicsConfig()
     # The highest speed the default physics accepts at the full turn rate (check_solid's limit).
     top = (
@@ -401,8 +404,7 @@ def bench_walls(steps_total: int, seed: int) -> int:
         / 1000
     )
     speeds = (0.5, 0.6, 0.7, top)
-    steps = overlaps = held = contact_steps = 0
-    nearest = math.inf
+    tally = _WallsTally()
     t0 = time.perf_counter()
     per_setting = max(1, steps_total // (len(settings) * len(speeds)))
     print(f"machine : {machine()}")
@@ -412,36 +414,63 @@ def bench_walls(steps_total: int, seed: int) -> int:
                 "collision": "continue", "max_speed_mps": speed, "time_limit_s": 1e5, "idle_time_s": 1e5,
             }  # fmt: skip
             kwargs.update(options)
-            env = gym.make("PicoEscape-v0", **kwargs)
+            env = gym.make(env_id, **kwargs)
             env.reset(seed=int(rng.integers(1 << 30)))
-            outline = pico_env(env).config.robot.outline
-            high = pico_env(env).action_space.high
-            done = 0
-            while done < per_setting:
-                # Hold one full-speed command (drive and spin) for 0.5-3 s, into whatever is there.
-                action = high * rng.choice([-1.0, 1.0], size=3) * rng.choice([0.0, 1.0], size=3, p=[0.2, 0.8])
-                for _ in range(int(rng.integers(5, 30))):
-                    _, _, terminated, truncated, info = env.step(action)
-                    u = pico_env(env)
-                    pose = u.pose
-                    clearance = footprint_clearance(pose.x, pose.y, pose.theta, outline, u.scene.static_solid, 0.05)
-                    steps += 1
-                    done += 1
-                    overlaps += clearance <= 0.0
-                    contact_steps += u.physics.in_contact
-                    nearest = min(nearest, clearance)
-                    if terminated or truncated:
-                        held += u.physics.held
-                        env.reset(seed=int(rng.integers(1 << 30)))
-                        break
-            held += pico_env(env).physics.held
+            _drive_adversarially(env, rng, per_setting, tally)
             env.close()
-    rate = steps / (time.perf_counter() - t0)
+    rate = tally.steps / (time.perf_counter() - t0)
     print(
-        f"adversarial driving: {steps:,} steps over {len(settings)} worlds x speeds {', '.join(map(str, speeds))} m/s "
-        f"at the full turn rate ({rate:,.0f} steps/s)"
+        f"adversarial driving ({env_id}): {tally.steps:,} steps over {len(settings)} worlds x speeds "
+        f"{', '.join(map(str, speeds))} m/s at the full turn rate ({rate:,.0f} steps/s)"
     )
-    print(f"steps in contact: {contact_steps:,}; sub-steps undone because the footprint would have touched: {held:,}")
-    print(f"nearest the true footprint came to anything solid: {nearest * 1000:.2f} mm")
-    print(f"true footprint overlapping something solid: {overlaps} steps")
-    return 0 if overlaps == 0 else 1
+    print(
+        f"steps in contact: {tally.contact_steps:,}; sub-steps undone because the footprint would have touched: "
+        f"{tally.held:,}; mover sub-steps undone because a person would have walked into the robot: "
+        f"{tally.movers_held:,}"
+    )
+    print(f"nearest the true footprint came to anything solid: {tally.nearest * 1000:.2f} mm")
+    print(f"true footprint overlapping something solid: {tally.overlaps} steps (people: {tally.mover_overlaps})")
+    return 0 if tally.overlaps == 0 else 1
+
+
+class _WallsTally:
+    def __init__(self) -> None:
+        self.steps = self.overlaps = self.mover_overlaps = self.held = self.movers_held = self.contact_steps = 0
+        self.nearest = math.inf
+
+
+def _drive_adversarially(env: Any, rng: np.random.Generator, n_steps: int, tally: _WallsTally) -> None:
+    """`n_steps` of full-speed commands held for 0.5-3 s (drive and spin, into whatever is there),
+    a fifth of them standing still (people walk up to the robot), checking the footprint after each."""
+    from pico_gym.world.geometry import footprint_clearance
+
+    u = pico_env(env)
+    outline = u.config.robot.outline
+    high = u.action_space.high
+    done = 0
+    while done < n_steps:
+        action = high * rng.choice([-1.0, 1.0], size=high.shape) * rng.choice([0.0, 1.0], size=high.shape, p=[0.2, 0.8])
+        if rng.random() < 0.2:
+            action = np.zeros_like(high)
+        if len(high) > 3:
+            action[3:] = -1.0  # (never announce)
+        for _ in range(int(rng.integers(5, 30))):
+            _, _, terminated, truncated, _info = env.step(action.astype(np.float32))
+            u = pico_env(env)
+            pose = u.pose
+            scene = u.scene
+            clearance = footprint_clearance(pose.x, pose.y, pose.theta, outline, scene.static_solid, 0.05)
+            people = footprint_clearance(pose.x, pose.y, pose.theta, outline, scene.mover_segments, 0.05)
+            tally.steps += 1
+            done += 1
+            tally.overlaps += min(clearance, people) <= 0.0
+            tally.mover_overlaps += people <= 0.0
+            tally.contact_steps += u.physics.in_contact
+            tally.nearest = min(tally.nearest, clearance, people)
+            if terminated or truncated:
+                tally.held += u.physics.held
+                tally.movers_held += u.physics.movers_held
+                env.reset(seed=int(rng.integers(1 << 30)))
+                break
+    tally.held += pico_env(env).physics.held
+    tally.movers_held += pico_env(env).physics.movers_held

@@ -73,7 +73,7 @@ def cmd_bench_env(args: argparse.Namespace) -> int:
 def cmd_bench_walls(args: argparse.Namespace) -> int:
     from pico_gym import bench
 
-    return bench.bench_walls(args.steps, args.seed)
+    return bench.bench_walls(args.steps, args.seed, args.env)
 
 
 # --- entry point ----------------------------------------------------------------------------
@@ -121,7 +121,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--lrf", action="store_true", help="only the LRF rows (pico-gym against f1tenth-style ray marching)")
     p.set_defaults(func=cmd_bench_env)
 
-    p = sub.add_parser("bench-walls", help="adversarial driving: count overlaps of the true footprint with walls")
+    p = sub.add_parser(
+        "bench-walls", help="adversarial driving: count overlaps of the true footprint with walls, boxes and people"
+    )
+    p.add_argument("--env", default=DEFAULT_ENV_ID, choices=tuple(TASKS), help="whose worlds (its walls_rows)")
     p.add_argument("--steps", type=int, default=1_000_000, help="env steps in total")
     p.add_argument("--seed", type=int, default=0, help="seed of the rooms and the commands")
     p.set_defaults(func=cmd_bench_walls)

@@ -71,8 +71,12 @@ def _apply(config: C, paths: list[tuple[tuple[str, ...], Any]]) -> C:
             nested.setdefault(head, []).append((path[1:], value))
             continue
         current = changes.get(head, getattr(config, head))
-        if dataclasses.is_dataclass(current) and isinstance(value, dict):
-            value = with_overrides(current, **value)
+        if dataclasses.is_dataclass(current) and not isinstance(current, type):
+            if isinstance(value, dict):
+                value = with_overrides(current, **value)
+            elif not isinstance(value, type(current)):
+                kind = type(current).__name__
+                raise TypeError(f"{head} must be a {kind} or a dict of its fields, got {value!r:.60}")
         changes[head] = value
     for head, items in nested.items():
         changes[head] = _apply(changes.get(head, getattr(config, head)), items)

@@ -167,9 +167,11 @@ class Physics:
 
     Guaranteed at every accepted setting (`PhysicsConfig.check_solid` refuses the rest): the
     robot's true footprint never touches static geometry (walls, cabinets, closed doors, boxes)
-    after any sub-step, and no contact drives it faster than `max_speed_mps` or turns it faster
-    than `max_turn_rate_radps`. The skin keeps pymunk's contacts away from the true footprint; a
-    sub-step after which the footprint would still touch something is undone (counted in `held`).
+    or a mover (a person or cart, walking or paused) after any sub-step, and no contact drives it
+    faster than `max_speed_mps` or turns it faster than `max_turn_rate_radps`. The skin keeps
+    pymunk's contacts away from the true footprint; a sub-step after which the footprint would
+    still touch something is undone (counted in `held`); a mover that would walk into the robot
+    waits instead (counted in `movers_held`), as the course simulator's people pause.
 
     Args:
         segments: (N, 4) static solid geometry, map frame.
@@ -201,6 +203,7 @@ class Physics:
         self._speed_cap = robot.max_speed_mps * (1.0 + _CAP_TOLERANCE)
         self._turn_cap = robot.max_turn_rate_radps * (1.0 + _CAP_TOLERANCE)
         self.held = 0  # sub-steps undone because the true footprint would have touched something
+        self.movers_held = 0  # mover sub-steps undone because a mover would have touched the robot
         # The free-space shortcut applies at all (then per step: no contact and enough room).
         self._may_glide = (
             config.free_space_shortcut and robot.max_accel_mps2 is None and robot.max_angular_accel_radps2 is None
@@ -233,6 +236,9 @@ class Physics:
             shape.collision_type = _KIND_BASE + MOVER
             space.add(body, shape)
             self._mover_bodies.append(body)
+        n_movers = len(self._mover_bodies)
+        self._mover_edges = np.zeros((4 * n_movers, 4))  # the movers' edges after a sub-step
+        self._mover_before = np.zeros((n_movers, 10))  # their state before it (to undo it)
 
         parts = [[tuple(v) for v in part] for part in robot.convex_parts]
         skin = config.contact_skin_m
@@ -392,10 +398,13 @@ class Physics:
             self.control.velocity = (c * cvx - s * cvy, s * cvx + c * cvy)
             self.control.angular_velocity = cw
             if self._mover_bodies:
+                self._mover_before[:] = self._scene().movers.state
                 self._move_movers(h)
             self.space.step(h)
             self.time_s += h
             self._hold(x0, y0, angle)
+            if self._mover_bodies:
+                self._hold_movers(x0, y0, angle)
         if self._mover_bodies:
             self._place_bodies()
             self._scene().update_movers()
@@ -437,6 +446,36 @@ class Physics:
             body.velocity = (0.0, 0.0)
             body.angular_velocity = 0.0
             self.held += 1
+
+    def _hold_movers(self, x0: float, y0: float, angle0: float) -> None:
+        """Movers are as solid as walls: after a sub-step the true footprint is clear of every
+        mover. A robot that touched one is held where it was (its sub-step undone, as against a
+        wall); a mover that walked into the robot waits (its sub-step undone, as the course's
+        people pause near the robot). Contacts still count as bumps of kind mover."""
+        movers = self._scene().movers
+        edges = self._mover_edges
+        movers.write_segments(edges)
+        body = self.body
+        x, y = body.position
+        angle = body.angle
+        if footprint_clearance(x, y, angle, self._outline, edges, _TOUCH_M) > 0.0:
+            return
+        if (x, y, angle) != (x0, y0, angle0):
+            body.position = (x0, y0)
+            body.angle = angle0
+            body.velocity = (0.0, 0.0)
+            body.angular_velocity = 0.0
+            self.held += 1
+            if footprint_clearance(x0, y0, angle0, self._outline, edges, _TOUCH_M) > 0.0:
+                return
+        for i, mover_body in enumerate(self._mover_bodies):
+            one = edges[4 * i : 4 * i + 4]
+            if footprint_clearance(x0, y0, angle0, self._outline, one, _TOUCH_M) <= 0.0:
+                movers.state[i] = self._mover_before[i]
+                movers.velocity[i] = 0.0
+                mover_body.position = (float(movers.state[i, 0]), float(movers.state[i, 1]))
+                mover_body.velocity = (0.0, 0.0)
+                self.movers_held += 1
 
     def _scene(self) -> Scene:
         """The scene (movers exist only with one)."""

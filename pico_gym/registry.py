@@ -96,6 +96,8 @@ class TaskInfo:
             common core, and how its summaries and tables show it).
         bench_rows: `bench-env --env` rows (empty: the escape env's own benchmark).
         lrf_maps: shipped maps whose scan rate `bench-env --env` measures.
+        walls_rows: the worlds `bench-walls --env` drives adversarially in (empty: the escape
+            rooms and shipped escape maps).
         suites: the task's own suites; "generated", "maps" and "all" every task has (a suite of
             the task's own by one of those names replaces it, e.g. to fix its seed splits).
     """
@@ -110,6 +112,7 @@ class TaskInfo:
     metrics: str = "pico_gym.metrics:EpisodeMetrics"
     bench_rows: tuple[BenchRow, ...] = ()
     lrf_maps: tuple[str, ...] = ()
+    walls_rows: tuple[BenchRow, ...] = ()
     suites: tuple[Suite, ...] = ()
 
     def shipped_maps(self) -> list[str]:

@@ -121,7 +121,7 @@ def checked_twist(action: np.ndarray) -> tuple[float, float, float]:
     if type(action) is np.ndarray and action.shape == (3,) and action.dtype.kind == "f":
         vx, vy, w = action.tolist()  # the common case, without a conversion (float32 -> float exactly)
     else:
-        a = np.asarray(action, dtype=np.float64)
+        a = _numbers(action, "(vx, vy, w)")
         if a.size != 3:
             raise ValueError(f"action must have 3 components (vx, vy, w), got shape {np.shape(action)}")
         vx, vy, w = a.ravel().tolist()
@@ -130,6 +130,16 @@ def checked_twist(action: np.ndarray) -> tuple[float, float, float]:
             if not math.isfinite(value):
                 raise ValueError(f"action component {name} is {value}; actions must be finite")
     return vx, vy, w
+
+
+def _numbers(action: object, names: str) -> np.ndarray:
+    """An action as a float64 array, or ValueError saying what an action is."""
+    if isinstance(action, (dict, str, bytes, set)) or action is None:
+        raise ValueError(f"an action is an array of numbers {names}, got {type(action).__name__} {action!r:.60}")
+    try:
+        return np.asarray(action, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"an action is an array of numbers {names}, got {action!r:.60}") from None
 
 
 @njit

@@ -62,3 +62,30 @@ def flag(name: str, value: Any) -> bool:
     if not isinstance(value, bool):
         raise ValueError(f"{name} must be True or False, got {value!r}")
     return value
+
+
+def index_list(name: str, value: Any, n: int, what: str, where: Any = "") -> list[int]:
+    """A list of distinct indices into `n` things (`what`), or ValueError naming `name`: a list,
+    tuple or 1-D array of ints (no bools, strings, floats or dicts), at most `n` long (checked
+    before any element is read), each in 0..n-1, none twice."""
+    import numpy as np
+
+    at = f" in {where}" if where else ""
+    if isinstance(value, np.ndarray):
+        if value.ndim != 1 or value.dtype.kind not in "iu":
+            raise ValueError(f"{name} must be a list of {what} indices (integers), got an array of {value.dtype}")
+        value = value.tolist()
+    if not isinstance(value, (list, tuple)):
+        raise ValueError(f"{name} must be a list of {what} indices, got {type(value).__name__} {value!r:.60}")
+    if len(value) > n:
+        raise ValueError(f"{name} lists {len(value):,} {what}s; there are {n}{at} (0..{n - 1}), each at most once")
+    out: list[int] = []
+    for k, i in enumerate(value):
+        if isinstance(i, bool) or not isinstance(i, (int, np.integer)):
+            raise ValueError(f"{name}[{k}] must be an integer {what} index, got {i!r:.40}")
+        if not 0 <= i < n:
+            raise ValueError(f"{name}[{k}] = {i} is out of range: there are {n} {what}s{at} (0..{n - 1})")
+        if int(i) in out:
+            raise ValueError(f"{name}[{k}] = {i} is listed twice: each {what} at most once")
+        out.append(int(i))
+    return out

@@ -103,7 +103,7 @@ def test_free_poses_keep_their_clearance_and_repeat_with_the_seed() -> None:
 def test_bench_walls_counts_overlaps_of_the_true_footprint(capsys: pytest.CaptureFixture[str]) -> None:
     main(["bench-walls", "--steps", "600"])
     out = capsys.readouterr().out
-    assert "adversarial driving:" in out and "true footprint overlapping something solid:" in out
+    assert "adversarial driving (PicoEscape-v0):" in out and "true footprint overlapping something solid:" in out
 
 
 def test_the_f1tenth_reference_as_shipped_is_its_lean_loop_plus_noise() -> None:

@@ -252,19 +252,48 @@ def test_a_drawn_escape_map_without_a_finish_asks_for_one_or_auto(tmp_path: Path
 # --- the simulator's config ----------------------------------------------------------------------
 
 
+# Each config with the world it was written for: the 2021 hospital's, or the default map of the
+# simulator of its branch (2020: the maze image, placed as that simulator places an image).
+WORLDS = {
+    "2021_hospitalconfig.json": ("PicoHospital-v0", {"map": "hospital_2021"}),
+    "2021_hospitalconfig_easy.json": ("PicoHospital-v0", {"map": "hospital_2021"}),
+    "2021_hospitalconfig_taco.json": ("PicoHospital-v0", {"map": "hospital_2021"}),
+    "2021_defaultconfig.json": ("PicoHospital-v0", {"map": "hospital_2021"}),
+    "2021_config.json": ("PicoEscape-v0", {"map_path": DATA / "heightmap_maze_legacy.pgm"}),
+    "2020_config.json": ("PicoEscape-v0", {"map_path": DATA / "heightmap_maze_legacy.pgm"}),
+    "config.json": ("PicoEscape-v0", {"map_path": DATA / "heightmap_maze_legacy.pgm"}),
+    "defaultconfig.json": ("PicoEscape-v0", {"map_path": DATA / "heightmap_maze_legacy.pgm"}),
+    "localizationconfig.json": ("PicoEscape-v0", {"map_path": DATA / "heightmap_maze_legacy.pgm"}),
+}
+
+
+def test_every_course_config_is_paired_with_its_world() -> None:
+    assert sorted(WORLDS) == CONFIGS
+
+
 @pytest.mark.parametrize("name", CONFIGS)
 def test_every_course_config_loads_or_is_refused_by_name(name: str) -> None:
     config = read_sim_config(DATA / name)
     assert config.enable_taco == (name in TWO_ROBOTS)
-    if name in TWO_ROBOTS:
-        with pytest.raises(ValueError, match="enable_taco: true asks for two robots.*parallel_env"):
-            gym.make("PicoHospital-v0", map="hospital_2021", sim_config=DATA / name)
-        return
-    env = gym.make("PicoHospital-v0", map="hospital_2021", sim_config=DATA / name)
+    env_id, world = WORLDS[name]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # (the maze's auto finish)
+        if name in TWO_ROBOTS:
+            with pytest.raises(ValueError, match="enable_taco: true asks for two robots.*parallel_env"):
+                gym.make(env_id, sim_config=DATA / name, **world)
+            return
+        env = gym.make(env_id, sim_config=DATA / name, **world)
     obs, info = env.reset(seed=0)
-    assert info["sim_config"]["ignored"] == ("show_full_map",)
+    assert info["sim_config"]["ignored"] == tuple(
+        k for k in ("show_full_map", "use_pyro") if k in json.loads((DATA / name).read_text())
+    )
     assert len(pico_env(env).episode.scene.movers.records) == len(config.objects)
     assert ("internal_pose" in obs) == config.provide_internal_pose
+
+
+def test_a_config_written_for_another_world_is_refused_naming_the_object() -> None:
+    with pytest.raises(ValueError, match=r"objects\[0\]: its way .* runs through a wall"):
+        gym.make("PicoHospital-v0", map="hospital_2021", sim_config=DATA / "2020_config.json")
 
 
 def test_uncertain_odom_false_gives_exact_odometry() -> None:

@@ -295,7 +295,7 @@ def test_options_and_config_errors() -> None:
     env = gym.make("PicoEscape-v0", map="escape_2018")
     with pytest.raises(ValueError, match="puts the robot in a wall"):
         env.reset(options={"start_pose": (0.0, 0.0, 0.0)})
-    with pytest.raises(ValueError, match="no path to the finish"):
+    with pytest.raises(ValueError, match="outside the walls: not in the room the finish line closes"):
         env.reset(options={"start_pose": (-3.0, 2.0, 0.0)})  # outside the room
     # EnvConfig is task-neutral: the task's config comes from the env (or is passed in).
     config = EnvConfig.make(task=EscapeTaskConfig(), rewards={"time": 0.5}, n_beams=32)

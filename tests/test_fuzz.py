@@ -79,7 +79,7 @@ def test_bad_hospital_options_are_refused_naming_the_option(kwargs: dict, messag
         ({"start_pose": (NAN, 0, 0)}, "must be \\(x, y, theta\\)"),
         ({"start_pose": "here"}, "must be \\(x, y, theta\\)"),
         ({"start_pose": (0, 0, 0)}, "puts the robot in a wall"),
-        ({"start_pose": (-3.0, 2.0, 0.0)}, "no path to the finish line"),
+        ({"start_pose": (-3.0, 2.0, 0.0)}, "outside the walls: not in the room the finish line closes"),
     ],
 )
 def test_bad_reset_options_are_refused(options: dict, message: str) -> None:

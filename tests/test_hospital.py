@@ -437,10 +437,10 @@ def test_bad_hospital_files_name_the_file_and_key(tmp_path) -> None:
     }
     data = _base()
     data["movers"] = [mover]
-    with pytest.raises(MapError, match=r"h\.json: movers\[0\]\.velocity: must be positive"):
+    with pytest.raises(MapError, match=r"h\.json: movers\[0\]\.velocity: must be in \(0, 2.0\]"):
         load_map(_write(tmp_path, data))
     data["movers"] = [{**mover, "velocity": 0.5, "width": -1}]
-    with pytest.raises(MapError, match=r"h\.json: movers\[0\]\.width: must be positive"):
+    with pytest.raises(MapError, match=r"h\.json: movers\[0\]\.width: must be in \(0, 3.0\]"):
         load_map(_write(tmp_path, data))
     data["movers"] = [{k: v for k, v in mover.items() if k != "repeat"}]
     with pytest.raises(MapError, match=r"movers\[0\]: missing key 'repeat'"):

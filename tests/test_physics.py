@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import math
 
+import gymnasium as gym
 import numpy as np
 import pytest
 
+import pico_gym  # noqa: F401
 from pico_gym.physics import Physics, PhysicsConfig
 from pico_gym.robot import RobotConfig
 from pico_gym.types import Pose
@@ -106,8 +108,6 @@ def adversarial_episode(seed: int, map_name: str | None, speed: float, steps: in
     `pico-gym bench-walls` drives; yields (env, pose before, pose after) per step."""
     import gymnasium as gym
 
-    import pico_gym  # noqa: F401
-
     kwargs = {"collision": "continue", "max_speed_mps": speed, "time_limit_s": 1e5, "idle_time_s": 1e5}
     if map_name:
         kwargs.update(map=map_name, sample_start=True)
@@ -168,8 +168,6 @@ def test_an_env_reusing_its_static_shapes_plays_as_a_fresh_one(kwargs: dict) -> 
     """The env hands its physics' static shapes to the next episode's (StaticShapePool): an
     episode after others on the same env is bit for bit the episode of a fresh env."""
     import gymnasium as gym
-
-    import pico_gym  # noqa: F401
 
     def play(env: gym.Env, seed: int) -> list[bytes]:
         env.reset(seed=seed)
@@ -235,3 +233,20 @@ def test_the_steps_compiled_motion_is_the_physics_own_step(env_id: str, kwargs: 
         if env._finished:
             env.reset(seed=int(rng.integers(1000)))
     assert glided > 50 and stepped > 5  # both paths were taken
+
+
+def test_people_and_carts_are_as_solid_as_walls() -> None:
+    """Adversarial driving among walking people (into them, and standing while they walk up):
+    the true footprint never overlaps a mover after a step, as it never overlaps a wall."""
+    from pico_gym.bench import _drive_adversarially, _WallsTally
+
+    rng = np.random.default_rng(7)
+    tally = _WallsTally()
+    for options in ({"map": "hospital_2019", "n_movers": (2, 2), "n_boxes": (1, 1)}, {"family": "crowded"}):
+        env = gym.make(
+            "PicoHospital-v0", collision="continue", max_speed_mps=0.7, time_limit_s=1e5, idle_time_s=1e5, **options
+        )
+        env.reset(seed=3)
+        _drive_adversarially(env, rng, 3000, tally)
+    assert tally.steps >= 6000 and tally.contact_steps > 0
+    assert tally.overlaps == 0 and tally.mover_overlaps == 0

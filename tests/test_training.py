@@ -710,3 +710,30 @@ def test_a_config_with_shielded_actions_trains(tmp_path):
     config = load_config(path)
     model_path = train(config, tmp_path / "run", seed=0, timesteps=1024, progress_bar=False)
     assert model_path.exists()
+
+
+def test_a_resume_never_unpickles_a_file_it_did_not_write(tiny_config, tmp_path, capsys):
+    """A VecNormalize pickle or a checkpoint zip put into a run folder by anyone else is refused
+    on a resume without being loaded (pickles run code); the trainer's own files are in the
+    folder's manifest with their sha256."""
+    import pickle
+
+    run = tmp_path / "run"
+    train(tiny_config, run, timesteps=1024, seed=0, progress_bar=False)
+    ckpt = run / "checkpoints"
+    assert latest_checkpoint(run, needs_stats=True)[1] == 1024
+    marker = tmp_path / "ran"
+
+    class Evil:
+        def __reduce__(self):
+            return (open, (str(marker), "w"))
+
+    # A newer checkpoint planted with a pickle that would run code when loaded.
+    (ckpt / "ppo_2048_steps.zip").write_bytes((ckpt / "ppo_1024_steps.zip").read_bytes())
+    (ckpt / "ppo_vecnormalize_2048_steps.pkl").write_bytes(pickle.dumps(Evil()))
+    assert latest_checkpoint(run, needs_stats=True) == (ckpt / "ppo_1024_steps.zip", 1024)
+    assert "not written by this run" in capsys.readouterr().out
+    # The trainer's own pickle, replaced: refused the same way.
+    (ckpt / "ppo_vecnormalize_1024_steps.pkl").write_bytes(pickle.dumps(Evil()))
+    assert latest_checkpoint(run, needs_stats=True) is None
+    assert not marker.exists()

@@ -16,6 +16,7 @@ from stable_baselines3.common.callbacks import BaseCallback
 from pico_gym.agents.base import RobotSpec
 from pico_gym.agents.evaluation import run_episode, summarize
 from pico_gym.agents.ppo import PpoAgent, save_policy
+from pico_gym.train.checkpoints import record_written
 from pico_gym.train.config import EVAL_SEED_START, TrainConfig, goal_metadata
 from pico_gym.train.envs import make_plain_env
 
@@ -157,7 +158,9 @@ class AtomicCheckpoints(BaseCallback):
             tmp = self.folder / f".ppo_vecnormalize_{steps}_steps.pkl.tmp"
             normalizer.save(str(tmp))
             os.replace(tmp, self.folder / f"ppo_vecnormalize_{steps}_steps.pkl")
+            record_written(self.folder / f"ppo_vecnormalize_{steps}_steps.pkl")
         tmp = self.folder / f".ppo_{steps}_steps.tmp.zip"
         self.model.save(tmp)
         os.replace(tmp, self.folder / f"ppo_{steps}_steps.zip")  # the zip last: it marks a whole checkpoint
+        record_written(self.folder / f"ppo_{steps}_steps.zip")
         return True

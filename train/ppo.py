@@ -32,7 +32,7 @@ import gymnasium as gym
 import pico_gym
 from pico_gym.agents.ppo import save_policy
 from pico_gym.train.callbacks import AtomicCheckpoints, EpisodeStats, PeriodicEval, StopFile
-from pico_gym.train.checkpoints import config_changes, latest_checkpoint, zip_timesteps
+from pico_gym.train.checkpoints import config_changes, latest_checkpoint, record_written, zip_timesteps
 from pico_gym.train.cloning import behaviour_clone
 from pico_gym.train.config import (
     MIRROR_POLICY,
@@ -167,9 +167,11 @@ def _resume_point(
     (run_dir / "checkpoints").mkdir(parents=True, exist_ok=True)  # (after the checks: a refusal leaves no run)
     first = run_dir / "checkpoints" / f"ppo_{start}_steps.zip"
     first.write_bytes(init_from.read_bytes())
+    record_written(first)  # (the file the user named with --init-from: trusted by that command)
     stats = init_from.with_name(f"ppo_vecnormalize_{start}_steps.pkl")
     if stats.exists():
         (run_dir / "checkpoints" / stats.name).write_bytes(stats.read_bytes())
+        record_written(run_dir / "checkpoints" / stats.name)
     (run_dir / "init_from.json").write_text(json.dumps({"checkpoint": str(init_from), "timesteps": start}) + "\n")
     return first, start
 

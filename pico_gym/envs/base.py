@@ -27,6 +27,7 @@ from pico_gym.physics import Physics, PhysicsConfig, StaticShapePool, glide, swe
 from pico_gym.pymath import TWO_PI, hypot, remainder
 from pico_gym.pymath import wrap_angle as compiled_wrap
 from pico_gym.robot import RobotConfig, checked_twist, clip_limits
+from pico_gym.robot import _numbers as action_numbers
 from pico_gym.sensors.lrf import Lrf, LrfConfig
 from pico_gym.sensors.odometry import Odometry, OdometryConfig, ground_twist, integrate
 from pico_gym.tasks.base import BASE_OPTION_KEYS, Episode, IdleTimer, StepContext, Task, timed_out
@@ -40,6 +41,8 @@ from pico_gym.world.scene import KINDS, Scene, SceneSnapshot
 
 # Clearance is computed exactly up to this distance; farther reads as this value [m].
 CLEARANCE_CAP_M = 2.0
+# A start heading beyond this is refused (modulo 2 pi it has lost its precision).
+MAX_HEADING_RAD = 1e6
 # info["cost"] (Safety Gym's convention): 1 per bump plus 1 per second closer than this to anything [m].
 COST_CLEARANCE_M = 0.1
 _NO_EXTRAS = np.zeros(0)
@@ -177,6 +180,10 @@ class EnvConfig:
             task: the task config to use when `config` is None or has none.
             **overrides: any field of the config or of a config nested in it, by name.
         """
+        if config is not None and not isinstance(config, EnvConfig):
+            raise TypeError(
+                f"config= takes an EnvConfig (or give its fields by name, e.g. dt_s=0.05), got {type(config).__name__}"
+            )
         base = config or EnvConfig(task=task)
         if base.task is None and task is not None:
             base = EnvConfig(base.dt_s, base.robot, base.lrf, base.odometry, base.physics, task, base.internal_pose)
@@ -218,9 +225,31 @@ def resolve_map(map_name: str | Map | None, map_path: str | os.PathLike[str] | N
 
     if map_name is not None and map_path is not None:
         raise ValueError("give map= (a shipped map's name) or map_path= (a file), not both")
+    if map_name is not None and not isinstance(map_name, (str, Map)):
+        raise TypeError(f"map= takes a shipped map's name (pico-gym maps) or a Map, got {map_name!r:.60}")
+    if map_path is not None and not isinstance(map_path, (str, os.PathLike)):
+        raise TypeError(f"map_path= takes a file's path, got {type(map_path).__name__} {map_path!r:.60}")
     if map_path is not None:
         return load_map(map_path)
     return load_shipped(map_name) if isinstance(map_name, str) else map_name
+
+
+def _start_option(sp: Any) -> Pose | None:
+    """`reset(options={"start_pose": (x, y, theta)})`, checked; the heading taken modulo 2 pi."""
+    if sp is None:
+        return None
+    try:
+        values = [float(v) for v in sp]
+    except (TypeError, ValueError):
+        values = []
+    if len(values) != 3 or not all(math.isfinite(v) for v in values):
+        raise ValueError(f"options['start_pose'] must be (x, y, theta) with finite values, got {sp!r}")
+    if abs(values[2]) > MAX_HEADING_RAD:
+        raise ValueError(
+            f"options['start_pose'] heading {values[2]} rad: give it within +-{MAX_HEADING_RAD:.0f} rad "
+            "(it is taken modulo 2 pi)"
+        )
+    return Pose(values[0], values[1], math.remainder(values[2], 2.0 * math.pi))
 
 
 class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
@@ -285,22 +314,15 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
             options: {"start_pose": (x, y, theta)} places the robot (map frame) instead of the
                 task's own start; the task documents its own options. Unknown keys are refused.
         """
+        if options is not None and not isinstance(options, dict):
+            raise TypeError(f"reset options must be a dict (e.g. {{'start_pose': (x, y, theta)}}), got {options!r:.60}")
         super().reset(seed=seed)
         options = dict(options or {})
         unknown = sorted(set(options) - BASE_OPTION_KEYS - self.task.option_keys)
         if unknown:
             known = ", ".join(sorted(BASE_OPTION_KEYS | self.task.option_keys))
             raise ValueError(f"unknown reset option(s) {', '.join(map(repr, unknown))}; options are: {known}")
-        start = None
-        if options.get("start_pose") is not None:
-            sp = options["start_pose"]
-            try:
-                values = [float(v) for v in sp]
-            except (TypeError, ValueError):
-                values = []
-            if len(values) != 3 or not all(math.isfinite(v) for v in values):
-                raise ValueError(f"options['start_pose'] must be (x, y, theta) with finite values, got {sp!r}")
-            start = Pose(*values)
+        start = _start_option(options.get("start_pose"))
         self.episode = self.task.new_episode(self.np_random, options, start)
         ep = self.episode
         scene = ep.scene
@@ -492,10 +514,10 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
     def _split_action(self, action: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         if self._n_extras == 0:
             return action, _NO_EXTRAS  # clip_twist checks the size and names bad components
-        a = np.asarray(action, dtype=np.float64).reshape(-1)
         n = 3 + self._n_extras
+        names = "(vx, vy, w" + "".join(f", extra{i}" for i in range(self._n_extras)) + ")"
+        a = action_numbers(action, names).reshape(-1)
         if a.size != n:
-            names = "(vx, vy, w" + "".join(f", extra{i}" for i in range(self._n_extras)) + ")"
             raise ValueError(f"action must have {n} components {names}, got shape {np.shape(action)}")
         extras = a[3:]
         for i, value in enumerate(extras.tolist()):
@@ -688,7 +710,12 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
 
     # --- rendering -----------------------------------------------------------------------
     def set_overlay(self, overlay: Overlay | Callable[[], Overlay | None] | None) -> None:
-        """Let an agent draw its own view (an Overlay, or a callable returning one per frame)."""
+        """Let an agent draw its own view (an Overlay, or a callable returning one per frame).
+
+        Raises:
+            TypeError: for anything else (said now, not at the next render)."""
+        if not (overlay is None or isinstance(overlay, Overlay) or callable(overlay)):
+            raise TypeError(f"set_overlay takes an Overlay, a callable returning one, or None; got {overlay!r:.60}")
         self._overlay = overlay
 
     def render(self) -> np.ndarray | None:

@@ -82,6 +82,13 @@ class GeodesicProgress:
         return progress
 
 
+def in_a_wall(segments: Any, pose: Pose, outline: np.ndarray) -> bool:
+    """Whether the robot's footprint at `pose` touches any of `segments`."""
+    from pico_gym.world import geometry
+
+    return geometry.polygon_clearance(geometry.transform_points(pose, outline), segments) <= 0.0
+
+
 def timed_out(sim_time_s: float, time_limit_s: float) -> bool:
     """Whether an episode has reached its time limit (simulated seconds)."""
     return sim_time_s >= time_limit_s - 1e-9

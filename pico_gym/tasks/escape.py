@@ -25,13 +25,14 @@ from pico_gym.tasks.base import (
     IdleRule,
     StepContext,
     StepOutcome,
+    in_a_wall,
 )
 from pico_gym.types import FloatArray, Pose
 from pico_gym.validate import flag, number
 from pico_gym.world import geometry
 from pico_gym.world.escape_room import EscapeRoomConfig, generate_escape_room, sample_start_pose
 from pico_gym.world.finish import auto_finish
-from pico_gym.world.grid import GeodesicField, Grid, geodesic_field
+from pico_gym.world.grid import CostGrid, GeodesicField, Grid, clearance_grid, geodesic_field
 from pico_gym.world.map import Map, MapError
 from pico_gym.world.movers import Movers
 from pico_gym.world.scene import Scene
@@ -252,6 +253,7 @@ class EscapeTask(ConfiguredTask):
         self.robot = robot
         self.fixed_map = fixed_map
         self._field_cache: tuple[Map, GeodesicField] | None = None
+        self._room_cache: tuple[Map, Grid, np.ndarray] | None = None
         self._finish_point = np.zeros(2)
         self._finish_normal = np.zeros(2)
         self._progress: GeodesicProgress = None  # type: ignore[assignment]  # made by new_episode
@@ -267,6 +269,7 @@ class EscapeTask(ConfiguredTask):
     ) -> Episode:
         """Draw (or take) the world and the start pose, and prepare the progress field."""
         room = None
+        given = start
         if self.fixed_map is None:
             room = generate_escape_room(rng, self.config.room, self.robot)
             world = room.map
@@ -285,6 +288,12 @@ class EscapeTask(ConfiguredTask):
         field = self._field(world, None if world is self.fixed_map else (start.x, start.y))
         if self._centre_past_line(start):
             raise ValueError(f"options['start_pose'] {tuple(start)} is past the finish line")
+        if given is not None and not in_a_wall(world.solid_segments(), given, self.robot.outline):
+            inside = room.route[0] if room is not None else _start_side(world)
+            if not self._in_room(world, given, (float(inside[0]), float(inside[1]))):
+                raise ValueError(
+                    f"options['start_pose'] {tuple(given)} is outside the walls: not in the room the finish line closes"
+                )
         # The oracle path: the origin's geodesic to the line, plus the footprint's rear half so
         # the whole robot is across.
         rear = float(-self.robot.outline[:, 0].min())
@@ -337,6 +346,22 @@ class EscapeTask(ConfiguredTask):
         if not math.isfinite(self._field(world).lookup(pose.x, pose.y)):
             return "is inside an obstacle or has no path to the finish line for the robot's footprint"
         return None
+
+    def _in_room(self, world: Map, pose: Pose, inside: tuple[float, float]) -> bool:
+        """Whether the robot's centre at `pose` is in the room (with its corridor) that holds
+        `inside`, the finish line closing it (a fixed map's room is kept for every episode)."""
+        if self._room_cache is not None and self._room_cache[0] is world:
+            grid, mask = self._room_cache[1], self._room_cache[2]
+        else:
+            grid = Grid.covering(world.bounds, self.config.geodesic_resolution_m, margin=1.0)
+            closed = np.vstack([world.solid_segments(), _finish_of(world).reshape(1, 4)])
+            costs = CostGrid.from_clearance(grid, clearance_grid(grid, closed, cap=0.5))
+            mask = costs.reachable_from(*inside)
+            if world is self.fixed_map:
+                self._room_cache = (world, grid, mask)
+        c = int((pose.x - grid.x0) / grid.resolution)
+        r = int((pose.y - grid.y0) / grid.resolution)
+        return 0 <= r < grid.shape[0] and 0 <= c < grid.shape[1] and bool(mask[r, c])
 
     def _field(self, world: Map, start: tuple[float, float] | None = None) -> GeodesicField:
         """The geodesic field to the finish line (with `start`: only where a robot from there can be)."""

@@ -30,7 +30,7 @@ from pico_gym.jit import njit
 from pico_gym.metrics import EpisodeMetrics, max_of, median_of
 from pico_gym.robot import RobotConfig
 from pico_gym.sensors.lrf import LrfConfig
-from pico_gym.tasks.base import IDLE_TIME_S, ConfiguredTask, Episode, IdleRule, StepContext, StepOutcome
+from pico_gym.tasks.base import IDLE_TIME_S, ConfiguredTask, Episode, IdleRule, StepContext, StepOutcome, in_a_wall
 from pico_gym.types import FloatArray, Pose, Segments
 from pico_gym.validate import number, span
 from pico_gym.world import geometry
@@ -502,7 +502,10 @@ class ExploreTask(ConfiguredTask):
             wall = parking_wall_of(fixed_map)
             normal, building = parking_side(fixed_map, wall, config.coverage_resolution_m)
             self._fixed = (wall, normal, building)
-            _object_of(fixed_map)  # refuse a bad `object` key at construction
+            _check_parking_wall(fixed_map, wall)
+            obj = _object_of(fixed_map)  # refuse a bad `object` key at construction
+            if obj is not None:
+                _check_object(fixed_map, obj, building, wall, normal, config.find_distance_m)
         self.episode: Episode | None = None
         self._phase_began_s = 0.0
 
@@ -540,6 +543,12 @@ class ExploreTask(ConfiguredTask):
         static = _static_segments(world)
         if start is None:
             start = self._start(rng, static, wall, normal, where, parked=phase == "find")
+        elif not in_a_wall(static, start, self.robot.outline):  # (a wall: the template says so)
+            r, c = _cell(building.grid, start.x, start.y)
+            if building.region[r, c] < -1:
+                raise ValueError(
+                    f"options['start_pose'] {tuple(start)} is outside the free space of {where}'s building"
+                )
         empty = Scene(world)
         self._object_scene = Scene(world, (), (obj,), empty.movers)  # what the world becomes once parked
         scene = self._object_scene if phase == "find" else empty
@@ -904,6 +913,55 @@ def _object_of(world: Map) -> FloatArray | None:
     if poly.ndim != 2 or poly.shape[1] != 2 or len(poly) < 3 or not np.isfinite(poly).all():
         raise MapError(f"{where}: object: expected a polygon of at least 3 finite [x, y] points, got {raw!r}")
     return poly
+
+
+# An object larger than this is not the course's object (a box of 0.3-0.5 m) [m^2].
+MAX_OBJECT_AREA_M2 = 4.0
+
+
+def _check_parking_wall(world: Map, wall: FloatArray) -> None:
+    """The parking wall must lie along a wall of the map (within 2 cm over its whole length)."""
+    static = np.vstack([world.structure_segments, world.obstacle_segments])
+    for t in np.linspace(0.0, 1.0, 9):
+        x, y = (wall[0] + t * (wall[1] - wall[0])).tolist()
+        if geometry.point_clearance(x, y, static) > 0.02:
+            where = world.source or world.name
+            raise MapError(
+                f"{where}: parking_wall: ({x:.2f}, {y:.2f}) on it is {geometry.point_clearance(x, y, static):.2f} m "
+                "from every wall: the parking wall must lie along a wall of the map, not stand in free space"
+            )
+
+
+def _check_object(
+    world: Map, obj: FloatArray, building: Building, wall: FloatArray, normal: FloatArray, reach_m: float
+) -> None:
+    """The map's object must stand on the building's floor (not outside it, not covering it),
+    keep clear of where the robot starts, and leave floor within `reach_m` of it to stand on."""
+    where = world.source or world.name
+    area = 0.5 * abs(float(np.dot(obj[:, 0], np.roll(obj[:, 1], -1)) - np.dot(obj[:, 1], np.roll(obj[:, 0], -1))))
+    if area > MAX_OBJECT_AREA_M2:
+        raise MapError(f"{where}: object: {area:.1f} m^2; the object is at most {MAX_OBJECT_AREA_M2} m^2 (a box)")
+    cx, cy = obj.mean(axis=0).tolist()
+    grid = building.grid
+    r, c = _cell(grid, cx, cy)
+    if not (grid.x0 <= cx <= grid.x0 + grid.shape[1] * grid.resolution) or building.region[r, c] < -1:
+        if not _near_free(building, r, c, 0.3):
+            raise MapError(f"{where}: object: its centre ({cx:.2f}, {cy:.2f}) is not on the building's floor")
+    start_zone = np.array([wall[0], wall[1], wall[1] + 1.3 * normal, wall[0] + 1.3 * normal])
+    if geometry.polygon_clearance(obj, geometry.polygon_to_segments(start_zone), 0.01) <= 0.0 or (
+        geometry.point_in_polygon(cx, cy, start_zone)
+    ):
+        raise MapError(f"{where}: object: it stands where the robot starts (within 1.3 m of the parking wall)")
+    if not _near_free(building, r, c, reach_m + 0.5):
+        raise MapError(f"{where}: object: no floor within {reach_m} m of it for the robot to stand on")
+
+
+def _near_free(building: Building, r: int, c: int, radius_m: float) -> bool:
+    """Whether the building has free floor within `radius_m` of cell (r, c)."""
+    k = int(math.ceil(radius_m / building.grid.resolution))
+    rows, cols = building.region.shape
+    window = building.region[max(0, r - k) : min(rows, r + k + 1), max(0, c - k) : min(cols, c + k + 1)]
+    return bool((window >= 0).any())
 
 
 def _unit(v: FloatArray) -> FloatArray:

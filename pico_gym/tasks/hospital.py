@@ -28,9 +28,10 @@ from pico_gym.tasks.base import (
     IdleRule,
     StepContext,
     StepOutcome,
+    in_a_wall,
 )
 from pico_gym.types import FloatArray, Pose, Segments
-from pico_gym.validate import number
+from pico_gym.validate import index_list, number
 from pico_gym.world import geometry
 from pico_gym.world.grid import CostGrid, GeodesicField, Grid, clearance_grid
 from pico_gym.world.hospital import Cabinet, HospitalConfig, cabinets_of, generate_hospital
@@ -299,6 +300,14 @@ class HospitalTask(ConfiguredTask):
         costs = _costs(grid, base_clearance, np.vstack(extra_segments) if extra_segments else np.zeros((0, 4)))
         if start is None:
             start = self._sample_start(rng, area, scene, where)
+        elif not in_a_wall(scene.solid_segments(), start, self.robot.outline):  # (a wall: the template says so)
+            inside = _costs(grid, base_clearance, np.zeros((0, 4))).reachable_from(*area.mean(axis=0).tolist())
+            r, c = _cell(grid, start.x, start.y)
+            if not inside[r, c]:
+                raise ValueError(
+                    f"options['start_pose'] {tuple(start)} is outside the walls of {where}: not in the building "
+                    "the start area is in"
+                )
         cells = [self._region_cells(costs, c, world) for c in targets]
         fields = _Fields(costs, cells)
         # The legs after the first need only the distance at the previous cabinet's dock point; the
@@ -345,17 +354,9 @@ class HospitalTask(ConfiguredTask):
         if given is None:
             k = min(self.config.n_cabinets, n)
             return [int(i) for i in rng.permutation(n)[:k]]
-        try:
-            order = [int(i) for i in given]
-        except (TypeError, ValueError):
-            raise ValueError(f"options['cabinet_order'] must be a list of cabinet indices, got {given!r}") from None
+        order = index_list("options['cabinet_order']", given, n, "cabinet", where)
         if not order:
             raise ValueError("options['cabinet_order'] is empty: give at least one cabinet index")
-        for k, i in enumerate(order):
-            if not 0 <= i < n:
-                raise ValueError(
-                    f"options['cabinet_order'][{k}] = {i} is out of range: {where} has {n} cabinets (0..{n - 1})"
-                )
         return order
 
     def _closed_doors(
@@ -365,13 +366,7 @@ class HospitalTask(ConfiguredTask):
         `n_closed_doors`): a draw keeps every cabinet of the order reachable from the start area."""
         n = len(world.door_segments)
         if given is not None:
-            try:
-                closed = tuple(int(d) for d in given)
-            except (TypeError, ValueError):
-                raise ValueError(f"options['closed_doors'] must be a list of door indices, got {given!r}") from None
-            for k, d in enumerate(closed):
-                if not 0 <= d < n:
-                    raise ValueError(f"options['closed_doors'][{k}] = {d} is out of range: {where} has {n} doors")
+            closed = tuple(index_list("options['closed_doors']", given, n, "door", where))
             for d in closed:
                 if not reachable(world.door_segments[d]):
                     raise ValueError(
@@ -416,6 +411,8 @@ class HospitalTask(ConfiguredTask):
             MapError: naming the file and the key.
         """
         where = world.source or world.name
+        _check_cabinets_apart(world, where)
+        _check_doors_in_openings(world, where)
         grid = self._fixed_grid
         self._fixed_clearance = _clearance(grid, world)
         costs = _costs(grid, self._fixed_clearance, np.zeros((0, 4)))
@@ -771,6 +768,37 @@ class _Fields:
             rows, cols = self._cells[k]
             field = self._fields[k] = self._costs.field_from(rows, cols, np.zeros(len(rows)))
         return field
+
+
+def _check_cabinets_apart(world: Map, where: Any) -> None:
+    """No two cabinets may be the same or overlap."""
+    polygons = [world.polygon(c) for c in world.cabinets]
+    for j, b in enumerate(polygons):
+        for i in range(j):
+            a = polygons[i]
+            if a.shape == b.shape and np.allclose(np.sort(a, axis=0), np.sort(b, axis=0)):
+                raise MapError(f"{where}: cabinets[{j}]: the same cabinet as cabinets[{i}]")
+            if geometry.polygon_clearance(b, geometry.polygon_to_segments(a), 0.01) <= 0.0:
+                raise MapError(f"{where}: cabinets[{j}]: overlaps cabinets[{i}]")
+
+
+def _check_doors_in_openings(world: Map, where: Any) -> None:
+    """A door stands in an opening of the walls: both ends of its long axis touch a wall."""
+    walls = world.structure_segments
+    if not len(walls):
+        return
+    for k, door in enumerate(world.doors):
+        poly = world.polygon(door)
+        edges = np.roll(poly, -1, axis=0) - poly
+        lengths = np.hypot(edges[:, 0], edges[:, 1])
+        short = np.argsort(lengths)[:2]  # the two short sides: the ends against the jambs
+        for e in short:
+            mx, my = (poly[e] + 0.5 * edges[e]).tolist()
+            if geometry.point_clearance(mx, my, walls) > 0.05:
+                raise MapError(
+                    f"{where}: doors[{k}]: its end at ({mx:.2f}, {my:.2f}) touches no wall: a door must fill an "
+                    "opening of the walls, not stand in a room"
+                )
 
 
 class _Reachable:

@@ -18,11 +18,13 @@ from typing import Any
 
 import numpy as np
 
+from pico_gym.jsonfile import JsonError, read_json
 from pico_gym.robot import PICO_OUTLINE
 from pico_gym.types import FloatArray, Pose, Segments
 from pico_gym.world import geometry
 from pico_gym.world.heightmap import (
     COURSE_RESOLUTION_M,
+    FREE_OCCUPANCY,
     MAX_IMAGE_PIXELS,
     HeightmapGeometry,
     ImageError,
@@ -37,7 +39,7 @@ from pico_gym.world.map_server import (
     read_channels,
     read_metadata,
 )
-from pico_gym.world.movers import MoverRecord, mover_record
+from pico_gym.world.movers import MoverRecord, mover_problem, mover_record
 
 FORMAT_VERSION = 1
 IMAGE_SUFFIXES = (".png", ".pgm", ".pbm", ".ppm", ".bmp", ".jpg", ".jpeg", ".gif", ".tif", ".tiff")
@@ -133,6 +135,16 @@ class Map:
                 grey = course_grey(occupancy_values(pixels, has_alpha, hm.map_server), hm.map_server.unknown)
         except (ImageError, MapServerError) as error:
             raise MapError(f"{where}: {'map_server' if hm.map_server else 'heightmap'}.image {path}: {error}") from None
+        key = "map_server" if hm.map_server else "heightmap"
+        rows, cols = grey.shape
+        if max(rows, cols) * hm.resolution > MAX_MAP_SIDE_M:
+            raise MapError(
+                f"{where}: {key}.resolution: {hm.resolution} m per pixel makes the {cols} x {rows} image "
+                f"{cols * hm.resolution:,.0f} x {rows * hm.resolution:,.0f} m; a map spans at most "
+                f"{MAX_MAP_SIDE_M:.0f} m"
+            )
+        if not ((255.0 - grey.astype(np.float64)) / 255.0 < FREE_OCCUPANCY).any():
+            raise MapError(f"{where}: {key}.image {path}: no free floor: every pixel is an obstacle or a door")
         try:
             return heightmap_geometry(grey, hm.resolution, hm.origin, hm.simplify_m, yaw=hm.yaw)
         except ImageError as error:
@@ -320,7 +332,7 @@ def map_from_dict(data: Any, source: Path | None = None, allow_outside: bool = F
     if not isinstance(data, dict):
         raise MapError(f"{where}: a map file must hold a JSON object, got {type(data).__name__}")
     version = data.get("version", FORMAT_VERSION)
-    if version != FORMAT_VERSION:
+    if type(version) is not int or version != FORMAT_VERSION:
         raise _fail(where, "version", f"unsupported version {version!r} (this pico-gym reads {FORMAT_VERSION})")
     if "walls" not in data and "heightmap" not in data and "map_server" not in data:
         raise MapError(
@@ -355,7 +367,20 @@ def map_from_dict(data: Any, source: Path | None = None, allow_outside: bool = F
     result.wall_segments  # noqa: B018  (reads the heightmap now, so its errors surface at load time)
     if start_pose is not None:
         check_start_pose(result, where)
+    check_movers(result, where)
     return result
+
+
+def check_movers(world: Map, where: Any, key: str = "movers") -> None:
+    """Refuse movers that cannot walk on the map (MapError naming `where` and the mover): one that
+    starts or ends outside the map, or whose way meets a wall, a cabinet or an obstacle."""
+    if not world.movers:
+        return
+    static = np.vstack([world.structure_segments, world.cabinet_segments, world.obstacle_segments])
+    for k, m in enumerate(world.movers):
+        problem = mover_problem(m, static, world.bounds)
+        if problem is not None:
+            raise _fail(where, f"{key}[{k}]", problem)
 
 
 def _points(data: dict[str, Any], where: Any) -> FloatArray:
@@ -401,6 +426,8 @@ def _start_pose(sp: Any, where: Any) -> Pose:
 
 def _obstacles(value: Any, where: Any) -> tuple[FloatArray, ...]:
     """The unknown static obstacles: polygons of 3 or more vertices."""
+    if not isinstance(value, list):
+        raise _fail(where, "obstacles", f"expected a list of {{'polygon': [[x, y], ...]}}, got {value!r:.60}")
     obstacles = []
     for k, ob in enumerate(value):
         poly = ob.get("polygon") if isinstance(ob, dict) else None
@@ -530,11 +557,9 @@ def _movers_from_config(
     base = source.parent if source is not None else Path.cwd()
     path = _inside(base, base / value["config"], where, "movers.config", allow_outside)
     try:
-        config = json.loads(path.read_text())
-    except OSError as error:
-        raise _fail(where, "movers.config", f"cannot read {path}: {error.strerror}") from None
-    except json.JSONDecodeError as error:
-        raise _fail(where, "movers.config", f"{path} is not valid JSON: {error.msg} at line {error.lineno}") from None
+        config = read_json(path)
+    except JsonError as error:
+        raise _fail(where, "movers.config", str(error)) from None
     if not isinstance(config, dict) or not isinstance(config.get("objects", []), list):
         raise _fail(where, "movers.config", f"{path}: expected a course config with a list 'objects'")
     fx, fy, fth = _frame(value["frame"], where, "movers.frame") if "frame" in value else default_frame
@@ -593,11 +618,9 @@ def load_map(path: str | os.PathLike[str], allow_outside: bool = False) -> Map:
     if path.suffix.lower() in YAML_SUFFIXES:
         return map_from_dict({"name": path.stem, "map_server": path.name}, path)
     try:
-        data = json.loads(path.read_text())
-    except UnicodeDecodeError as error:
-        raise MapError(f"{path}: not a JSON file (not text: {error.reason})") from None
-    except json.JSONDecodeError as error:
-        raise MapError(f"{path}: not valid JSON: {error.msg} at line {error.lineno}, column {error.colno}") from None
+        data = read_json(path)
+    except JsonError as error:
+        raise MapError(str(error)) from None
     return map_from_dict(data, path, allow_outside)
 
 

@@ -179,7 +179,7 @@ def read_channels(path: Path, max_pixels: int) -> tuple[np.ndarray, bool]:
             if mode not in ("L", "RGB", "RGBA"):
                 image, mode = image.convert("RGB"), "RGB"
             pixels = np.asarray(image, dtype=np.uint8)
-    except (UnidentifiedImageError, OSError, SyntaxError, Image.DecompressionBombError) as error:
+    except (UnidentifiedImageError, OSError, SyntaxError, ValueError, Image.DecompressionBombError) as error:
         raise MapServerError(f"{path}: not a readable image ({error})") from None
     if pixels.ndim == 2:
         pixels = pixels[:, :, None]

@@ -78,6 +78,31 @@ class MoverRecord:
         }
 
 
+# Bounds of a mover record: a person or a cart (the course's are 0.2-1.0 m, 0.5-0.6 m/s).
+MAX_MOVER_SIDE_M = 3.0
+MAX_MOVER_SPEED_MPS = 2.0
+MAX_TRIGGER_RADIUS_M = 100.0
+
+
+def mover_problem(m: MoverRecord, static: Segments, bounds: tuple[float, float, float, float]) -> str | None:
+    """Why a mover cannot walk on a map (None when it can): it starts or ends outside the map, or
+    its way runs through a wall, a cabinet or an obstacle: its centre's path from `init_pose` to
+    `final_pose` comes closer to one than half the box's narrow side (the course's own cart ends
+    with its box against a wall: touching is allowed, crossing is not)."""
+    from pico_gym.world import geometry
+
+    x0, y0, x1, y1 = bounds
+    for key, (x, y, _) in (("init_pose", m.init_pose), ("final_pose", m.final_pose)):
+        if not (x0 <= x <= x1 and y0 <= y <= y1):
+            return f"{key} ({x:.2f}, {y:.2f}) is outside the map ({x0:.2f}..{x1:.2f}, {y0:.2f}..{y1:.2f})"
+    (a, b, _), (c, d, _) = m.init_pose, m.final_pose
+    need = 0.5 * min(m.length, m.width) - 0.01
+    path = np.array([[a, b], [c, d]]) if (a, b) != (c, d) else np.array([[a, b], [a + 1e-9, b]])
+    if len(static) and geometry.polygon_clearance(path, static, need + 0.01) < need:
+        return f"its way from ({a:.2f}, {b:.2f}) to ({c:.2f}, {d:.2f}) runs through a wall, a cabinet or an obstacle"
+    return None
+
+
 def mover_record(data: Any, where: str) -> MoverRecord:
     """A `MoverRecord` from a course record (dict); ValueError naming `where` and the key."""
     if not isinstance(data, dict):
@@ -86,11 +111,13 @@ def mover_record(data: Any, where: str) -> MoverRecord:
         if key not in data:
             raise ValueError(f"{where}: missing key '{key}'")
     values = {k: _record_number(data, k, where) for k in ("length", "width", "trigger_radius", "velocity")}
-    for k in ("length", "width", "velocity"):
-        if values[k] <= 0:
-            raise ValueError(f"{where}.{k}: must be positive, got {values[k]}")
-    if values["trigger_radius"] < 0:
-        raise ValueError(f"{where}.trigger_radius: must be >= 0, got {values['trigger_radius']}")
+    for k, most in (("length", MAX_MOVER_SIDE_M), ("width", MAX_MOVER_SIDE_M), ("velocity", MAX_MOVER_SPEED_MPS)):
+        if not 0 < values[k] <= most:
+            raise ValueError(f"{where}.{k}: must be in (0, {most}], got {values[k]}")
+    if not 0 <= values["trigger_radius"] <= MAX_TRIGGER_RADIUS_M:
+        raise ValueError(
+            f"{where}.trigger_radius: must be in [0, {MAX_TRIGGER_RADIUS_M}], got {values['trigger_radius']}"
+        )
     if not isinstance(data["repeat"], bool):
         raise ValueError(f"{where}.repeat: expected true or false, got {data['repeat']!r}")
     return MoverRecord(

@@ -21,14 +21,14 @@ takes the master simulator's spawn.
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
+from pico_gym.jsonfile import JsonError, read_json
 from pico_gym.types import Pose
-from pico_gym.world.map import Map, MapError, check_start_pose
+from pico_gym.world.map import Map, MapError, check_movers, check_start_pose
 from pico_gym.world.movers import MoverRecord, mover_record
 
 KEYS = (
@@ -130,15 +130,15 @@ def read_sim_config(path: str | Path) -> SimConfig:
         SimConfigError: naming the file and the key: not JSON, not an object, an unknown key, a
             value of the wrong type, a bad moving object, both `initial_pose` and `pico_pose`.
     """
+    if not isinstance(path, (str, Path)):
+        raise SimConfigError(f"sim_config= takes a config file's path, got {type(path).__name__} {path!r:.60}")
     path = Path(path)
-    if path.is_dir() or not path.is_file():
-        raise SimConfigError(f"{path}: no such simulator config file")
-    if path.stat().st_size > MAX_CONFIG_BYTES:
+    if path.is_file() and path.stat().st_size > MAX_CONFIG_BYTES:
         raise SimConfigError(f"{path}: {path.stat().st_size:,} bytes; a simulator config is a few hundred")
     try:
-        data = json.loads(path.read_text())
-    except (UnicodeDecodeError, RecursionError, ValueError) as error:
-        raise SimConfigError(f"{path}: not valid JSON ({error})") from None
+        data = read_json(path)
+    except JsonError as error:
+        raise SimConfigError(str(error)) from None
     if not isinstance(data, dict):
         raise SimConfigError(f"{path}: a simulator config is a JSON object of {', '.join(KEYS)}")
     unknown = sorted(k for k in data if k not in KEYS)
@@ -199,6 +199,10 @@ def with_sim_config(world: Map | None, config: SimConfig) -> Map:
         x0, y0, x1, y1 = world.bounds
         start = Pose(0.5 * (x1 + x0), 0.5 * (y1 + y0), math.remainder(1.57 + world.simulator_frame[2], 2 * math.pi))
     placed = replace(world, movers=movers, start_pose=start, start_area=area)
+    try:
+        check_movers(placed, config.source, "objects")
+    except MapError as error:
+        raise ValueError(str(error)) from None
     if start is not None and start != world.start_pose:
         key = "initial_pose / pico_pose" if config.pico_pose is not None else "(no spawn pose: the map's centre)"
         try:
