@@ -80,6 +80,8 @@ def _env_options(args: argparse.Namespace) -> dict[str, Any]:
         options["map"] = args.map
     if args.map_path:
         options["map_path"] = args.map_path
+    if getattr(args, "sim_config", None):
+        options["sim_config"] = args.sim_config
     for item in args.set or []:
         key, _, value = item.partition("=")
         if not key or not value:
@@ -118,6 +120,9 @@ def _common(p: argparse.ArgumentParser, seed_default: int | None = 0) -> None:
     where = p.add_mutually_exclusive_group()
     where.add_argument("--map", help="a shipped map (default: generated rooms)")
     where.add_argument("--map-path", help="a map file")
+    p.add_argument(
+        "--sim-config", help="a course simulator config file (its objects, odometry, start poses, ...; with --map)"
+    )
     p.add_argument("--seed", type=int, default=seed_default, help="the (first) episode's seed (default: 0)")
     p.add_argument(
         "--set",
@@ -274,6 +279,9 @@ def _bench_episodes(args: argparse.Namespace) -> tuple[Any, str]:
 def cmd_bench(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
+    if args.robots == 2:
+        return _bench_two_robots(args)
+
     from pico_gym.agents.compare import protocol_header, protocol_row, run_comparison, settings_of
     from pico_gym.agents.evaluation import format_summary, summarize
 
@@ -312,6 +320,30 @@ def cmd_bench(args: argparse.Namespace) -> int:
     return 0
 
 
+def _bench_two_robots(args: argparse.Namespace) -> int:
+    """`pico-gym bench --robots 2`: both robots' figures (success, time, robot-robot bumps)."""
+    from tqdm import tqdm
+
+    from pico_gym.agents.two_robots import failures, run_two_robots, summary_table
+
+    if args.suite is not None or args.option:
+        raise ValueError("--robots 2 takes --episodes, --seed and env options (--map, --set), not --suite or --option")
+    seed, n = args.seed if args.seed is not None else 0, args.episodes or 20
+    args.agent = _agent(args)
+    options = _env_options(args)
+    with tqdm(total=n, desc=f"{args.agent} x2", unit="ep", file=sys.stderr, disable=args.quiet) as bar:
+        records = run_two_robots(
+            args.env, args.agent, range(seed, seed + n), options, _agent_kwargs(args, args.agent), bar.update
+        )
+    print(f"{args.env} {options or '(generated worlds)'}, two robots (pico, taco), seeds {seed}..{seed + n - 1}")
+    print(summary_table(args.agent, records))
+    print(f"failures (seed: reasons): {failures(records)}")
+    if args.json:
+        Path(args.json).write_text(json.dumps([r.to_dict() for r in records], indent=1) + "\n")
+        print(f"wrote {args.json}")
+    return 0
+
+
 def add_run(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("run", help="play one episode with an agent and print the outcome")
     _common(p)
@@ -340,6 +372,13 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
     _add_workers(p)
     p.add_argument("--json", help="write per-episode records and the summary as JSON")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument(
+        "--robots",
+        type=int,
+        choices=(1, 2),
+        default=1,
+        help="2: pico and taco in one world (pico_gym.multi; the multi extra), the agent driving each",
+    )
     p.set_defaults(func=cmd_bench)
 
 

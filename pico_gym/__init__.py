@@ -117,4 +117,12 @@ register_envs()
 # The shipped envs' ids (`pico_gym.registry.TASKS` holds every registered task).
 ENV_IDS = tuple(info.env_id for info in BUILTIN_TASKS)
 
-__all__ = ["ENV_IDS", "TASKS", "register_envs"]
+
+def parallel_env(env_id: str = "PicoHospital-v0", **kwargs: object) -> object:
+    """Two robots in one world, a PettingZoo ParallelEnv (`pico_gym.multi`; the `multi` extra)."""
+    from pico_gym.multi import parallel_env as make
+
+    return make(env_id, **kwargs)
+
+
+__all__ = ["ENV_IDS", "TASKS", "parallel_env", "register_envs"]

@@ -31,8 +31,9 @@ from pico_gym.robot import RobotConfig
 from pico_gym.sensors.odometry import integrate
 from pico_gym.types import Pose, Segments
 from pico_gym.validate import flag, number
+from pico_gym.world import geometry
 from pico_gym.world.geometry import footprint_clearance
-from pico_gym.world.scene import KINDS, MOVER, WALL, Scene
+from pico_gym.world.scene import KINDS, MOVER, ROBOT_KIND, WALL, Scene
 
 # The free-space shortcut and contact handling assume sub-steps of at most this [s].
 MAX_SUBSTEP_S = 0.05
@@ -275,6 +276,9 @@ class Physics:
         self.contacts = 0
         self.bumps = 0
         self.bumps_by_kind = [0] * len(KINDS)
+        self._other_bodies: list[pymunk.Body] = []  # other robots in the world (`add_other_robots`)
+        self._other_edges = np.zeros((0, 4))
+        self.drives_movers = True
         self.bump_log: list[str] = []  # the kind of every bump, in order
         self.time_s = 0.0
         self._contact_ended_s = -math.inf
@@ -322,6 +326,40 @@ class Physics:
         self._pool.give(self._static_shapes, self._static_keys)
         self._static_shapes, self._static_keys = [], []
 
+    def add_other_robots(self, n: int) -> None:
+        """Put `n` other robots into this world as kinematic bodies of the same footprint (placed
+        by `place_other_robots` before each step): solid to this robot, counted as bumps of kind
+        "robot" (`ROBOT_KIND`), never moved by it."""
+        for _ in range(n):
+            body = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
+            for part in self.robot.convex_parts:
+                shape = pymunk.Poly(body, [tuple(v) for v in part])
+                shape.friction = 0.0
+                shape.collision_type = _KIND_BASE + ROBOT_KIND
+                if body.space is None:
+                    self.space.add(body, shape)
+                else:
+                    self.space.add(shape)
+            self._other_bodies.append(body)
+        if n and len(self.bumps_by_kind) == len(KINDS):
+            self.space.on_collision(
+                _ROBOT, _KIND_BASE + ROBOT_KIND, begin=self._begin, separate=self._separate, data=ROBOT_KIND
+            )
+            self.bumps_by_kind.append(0)
+
+    def place_other_robots(self, poses: list[Pose]) -> None:
+        """Where the other robots stand for the next step (they do not move during it)."""
+        outline = self._outline
+        edges = []
+        for body, pose in zip(self._other_bodies, poses, strict=True):
+            body.position = (pose.x, pose.y)
+            body.angle = pose.theta
+            body.velocity = (0.0, 0.0)
+            body.angular_velocity = 0.0
+            placed = geometry.transform_points(pose, outline)
+            edges.append(np.hstack([placed, np.roll(placed, -1, axis=0)]))
+        self._other_edges = np.vstack(edges) if edges else np.zeros((0, 4))
+
     @classmethod
     def from_scene(
         cls, scene: Scene, robot: RobotConfig, config: PhysicsConfig, pose: Pose, pool: StaticShapePool | None = None
@@ -334,7 +372,7 @@ class Physics:
             self.bumps += 1
             kind = int(data) if isinstance(data, int) else WALL
             self.bumps_by_kind[kind] += 1
-            self.bump_log.append(KINDS[kind])
+            self.bump_log.append((*KINDS, "robot")[kind])
         self.contacts += 1
 
     def _separate(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data: object) -> None:
@@ -383,8 +421,8 @@ class Physics:
             self._glide(vx, vy, w, n * h)
             return
         self._flush()
-        if self._mover_bodies and self._bodies_stale:
-            self._place_bodies()  # where the movers went while the robot glided (and stopped)
+        if self._mover_bodies and (self._bodies_stale or not self.drives_movers):
+            self._place_bodies()  # where the movers went while the robot glided (or another robot's step moved them)
         body = self.body
         # The static segments the footprint can reach in this step (the caps bound its motion).
         x, y = body.position
@@ -397,7 +435,8 @@ class Physics:
             c, s = math.cos(angle), math.sin(angle)
             self.control.velocity = (c * cvx - s * cvy, s * cvx + c * cvy)
             self.control.angular_velocity = cw
-            if self._mover_bodies:
+            drive = self._mover_bodies and self.drives_movers
+            if drive:
                 self._mover_before[:] = self._scene().movers.state
                 self._move_movers(h)
             self.space.step(h)
@@ -405,9 +444,22 @@ class Physics:
             self._hold(x0, y0, angle)
             if self._mover_bodies:
                 self._hold_movers(x0, y0, angle)
-        if self._mover_bodies:
+            if self._other_bodies:
+                self._hold_others(x0, y0, angle)
+        if self._mover_bodies and self.drives_movers:
             self._place_bodies()
             self._scene().update_movers()
+
+    def _hold_others(self, x0: float, y0: float, angle0: float) -> None:
+        """Other robots are solid: a sub-step that would make the footprint touch one is undone."""
+        body = self.body
+        x, y = body.position
+        if footprint_clearance(x, y, body.angle, self._outline, self._other_edges, _TOUCH_M) <= 0.0:
+            body.position = (x0, y0)
+            body.angle = angle0
+            body.velocity = (0.0, 0.0)
+            body.angular_velocity = 0.0
+            self.held += 1
 
     def _hold(self, x0: float, y0: float, angle0: float) -> None:
         """Keep the guarantees of a sub-step (see `Physics`) after pymunk has taken it.
@@ -468,6 +520,8 @@ class Physics:
             self.held += 1
             if footprint_clearance(x0, y0, angle0, self._outline, edges, _TOUCH_M) > 0.0:
                 return
+        if not self.drives_movers:
+            return  # (they moved in another robot's step, which held them)
         for i, mover_body in enumerate(self._mover_bodies):
             one = edges[4 * i : 4 * i + 4]
             if footprint_clearance(x0, y0, angle0, self._outline, one, _TOUCH_M) <= 0.0:

@@ -122,6 +122,17 @@ def save_gif(frames: list[np.ndarray], path: str | os.PathLike[str], fps: float,
     images[0].save(path, save_all=True, append_images=images[1:], duration=max(20, int(1000 / fps)), loop=0)
 
 
+def _draw_robots(surface: Any, view: View, state: SceneSnapshot) -> None:
+    """The robot (filled, with its heading) and any other robot in the world (in outline)."""
+    pygame = _pygame()
+    for other in state.others:
+        pygame.draw.polygon(surface, ROBOT, view.px(transform_points(other, state.outline)), 2)
+    pose = state.pose
+    pygame.draw.polygon(surface, ROBOT, view.px(transform_points(pose, state.outline)))
+    a, b = view.px(transform_points(pose, np.array([[0.0, 0.0], [0.25, 0.0]])))
+    pygame.draw.line(surface, HEADING, a, b, 2)
+
+
 def _scale_bar(surface: Any, view: View) -> None:
     pygame = _pygame()
     pygame.font.init()
@@ -173,7 +184,6 @@ class Renderer:
             centre = view.px(np.array([x, y]))[0]
             pygame.draw.circle(surface, PAUSE, centre, max(1, int(pause * view.scale)), 1)
             pygame.draw.polygon(surface, MOVER, view.px(box_corners(x, y, yaw, length, width)))
-        pose = state.pose
         if len(state.trajectory) > 1:
             pygame.draw.lines(surface, TRAIL, False, view.px(state.trajectory), 1)
         for p in state.bump_points:
@@ -183,11 +193,7 @@ class Renderer:
         for u, v in view.px(state.scan_points):
             if 0 <= u < CANVAS_PX and 0 <= v < CANVAS_PX:
                 surface.set_at((u, v), SCAN)
-        footprint = transform_points(pose, state.outline)
-        pygame.draw.polygon(surface, ROBOT, view.px(footprint))
-        nose = transform_points(pose, np.array([[0.0, 0.0], [0.25, 0.0]]))
-        a, b = view.px(nose)
-        pygame.draw.line(surface, HEADING, a, b, 2)
+        _draw_robots(surface, view, state)
         if overlay is not None:
             self._draw_overlay(surface, view, state, overlay)
         status = f"t = {state.sim_time_s:5.1f} s   bumps = {state.bumps}"

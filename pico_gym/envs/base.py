@@ -302,6 +302,8 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self._trajectory: list[Pose] = []
         # Poses stepped elsewhere (a vector env's batch), as (n, 3) arrays not yet made Poses.
         self._trajectory_blocks: list[FloatArray] = []
+        self._n_others, self._drives_movers = 0, True  # other robots in the world (`expect_other_robots`)
+        self._other_poses: list[Pose] = []
 
     # --- the episode ---------------------------------------------------------------------
     def reset(
@@ -324,7 +326,61 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
             raise ValueError(f"unknown reset option(s) {', '.join(map(repr, unknown))}; options are: {known}")
         start = _start_option(options.get("start_pose"))
         self.episode = self.task.new_episode(self.np_random, options, start)
+        return self._begin_episode(start)
+
+    def join(
+        self, first: PicoEnv, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        """Start an episode as a second robot in `first`'s world (its walls, doors, boxes and
+        movers, the same Movers), with a start and task of its own (`Task.join_episode`); the
+        other robots are placed with `set_other_robots`. `pico_gym.multi` drives this."""
+        if options is not None and not isinstance(options, dict):
+            raise TypeError(f"reset options must be a dict, got {options!r:.60}")
+        join = getattr(self.task, "join_episode", None)
+        if join is None or first.episode is None:
+            raise TypeError(f"{type(self.task).__name__} takes no second robot" if join is None else "reset first")
+        super().reset(seed=seed)
+        options = dict(options or {})
+        unknown = sorted(set(options) - BASE_OPTION_KEYS - self.task.option_keys)
+        if unknown:
+            raise ValueError(f"unknown reset option(s) {', '.join(map(repr, unknown))}")
+        start = _start_option(options.get("start_pose"))
+        self.episode = join(first.episode, self.np_random, options, start, [first.pose])
+        return self._begin_episode(start)
+
+    def expect_other_robots(self, n: int, drives_movers: bool) -> None:
+        """From the next episode on, `n` other robots share this robot's world (solid to it, seen
+        by its LRF); `drives_movers`: this robot's physics moves the scene's movers (one robot's
+        does)."""
+        self._n_others, self._drives_movers = n, drives_movers
+
+    def set_other_robots(self, poses: list[Pose]) -> None:
+        """Where the other robots stand now (before this robot's step, and before a rescan)."""
+        self._other_poses = list(poses)
+        self.physics.place_other_robots(poses)
+        movers = self.scene.movers
+        if self._drives_movers and len(movers):
+            movers.other_robots = np.array([(p.x, p.y) for p in poses], dtype=np.float64).reshape(-1, 2)
+
+    def rescan(self) -> dict[str, np.ndarray]:
+        """Scan again where the robot stands (the other robots placed since): the observation."""
+        assert self.episode is not None
+        self.last_scan = self.lrf.scan(self._pose, self._seen, self.np_random, self._scan_movers(), self._one_sided)
+        return self._observation()
+
+    def _scan_movers(self) -> Segments | None:
+        """What moves that the LRF sees: the movers' edges, and the other robots' footprints."""
+        if not self._n_others:
+            return self._movers
+        parts = [self.physics._other_edges]
+        if self._movers is not None:
+            parts.insert(0, self._movers)
+        return np.vstack(parts)
+
+    def _begin_episode(self, start: Pose | None) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        """The rest of a reset once the task has made the episode (`start`: the one asked for)."""
         ep = self.episode
+        assert ep is not None
         scene = ep.scene
         if start is not None:
             footprint = geometry.transform_points(start, self._outline)
@@ -342,6 +398,9 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         if self.physics is not None:
             self.physics.release()  # its static shapes, for this episode's physics
         self.physics = Physics.from_scene(scene, self.config.robot, self.config.physics, ep.start, self._shape_pool)
+        if self._n_others:
+            self.physics.add_other_robots(self._n_others)
+            self.physics.drives_movers = self._drives_movers
         self._glide = self.physics.glide_constants(self.config.dt_s)
         self._glide_s = self._glide[2] * self._glide[3]  # the sub-steps' time, as the kernel glides it
         self._excused = [0] * len(KINDS)  # contacts the task's rules excused, by kind
@@ -377,7 +436,7 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
     def step(self, action: np.ndarray) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
         """Advance one control period with the body-frame twist `action` = (vx, vy, w[, extras])."""
         moved = self.begin_step(action)
-        self.take_scan(self.lrf.scan(self._pose, self._seen, self.np_random, self._movers, self._one_sided))
+        self.take_scan(self.lrf.scan(self._pose, self._seen, self.np_random, self._scan_movers(), self._one_sided))
         return self.finish_step(moved)
 
     # The step in three parts, so that a vector env can scan many robots in one call between them:
@@ -549,7 +608,9 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         physics = self.physics
         counts = (physics.bumps, self._n_excused)
         if self._bumps_by_kind is None or self._bumps_by_kind[0] != counts:  # counted anew only when a count changed
-            by_kind = {k: n - e for k, n, e in zip(KINDS, physics.bumps_by_kind, self._excused, strict=True)}
+            kinds = KINDS if len(physics.bumps_by_kind) == len(KINDS) else (*KINDS, "robot")
+            excused = self._excused + [0] * (len(kinds) - len(self._excused))
+            by_kind = {k: n - e for k, n, e in zip(kinds, physics.bumps_by_kind, excused, strict=True)}
             self._bumps_by_kind = (counts, by_kind)
         info = {
             "pose": np.array(pose),
@@ -706,6 +767,7 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
             sim_time_s=self.sim_time_s,
             bumps=self.physics.bumps - self._n_excused,
             marks=marks_fn() if marks_fn is not None else {},
+            others=tuple(self._other_poses),
         )
 
     # --- rendering -----------------------------------------------------------------------
@@ -762,6 +824,7 @@ class PicoMapEnv(PicoEnv):
         **options: Any,
     ) -> None:
         self.check_options(options)
+        robots = options.pop("_robots", 1)  # (pico_gym.multi: robots in the world)
         options = with_family(self.env_id, self.families, options)
         fixed = resolve_map(map, map_path)
         self.sim_config = None
@@ -769,7 +832,7 @@ class PicoMapEnv(PicoEnv):
             from pico_gym.world.sim_config import read_sim_config, with_sim_config
 
             self.sim_config = read_sim_config(options.pop("sim_config"))
-            if self.sim_config.enable_taco:
+            if self.sim_config.enable_taco and robots < 2:
                 raise ValueError(
                     f"{self.sim_config.source}: enable_taco: true asks for two robots; play it with "
                     f'pico_gym.parallel_env("{self.env_id}", sim_config=...) (the multi extra)'

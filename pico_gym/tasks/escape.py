@@ -294,6 +294,42 @@ class EscapeTask(ConfiguredTask):
                 raise ValueError(
                     f"options['start_pose'] {tuple(given)} is outside the walls: not in the room the finish line closes"
                 )
+        # Every door of an escape map is closed (a door leaf is part of the room).
+        # (a map's movers walk here too: a course config's objects, `sim_config=`)
+        movers = Movers(list(world.movers)) if world.movers else Movers(())
+        scene = Scene(world, closed_doors=tuple(range(len(world.door_segments))), movers=movers)
+        return self._begin(world, scene, field, start, room)
+
+    def join_episode(
+        self, first: Episode, rng: np.random.Generator, options: dict[str, Any], start: Pose | None, others: list[Pose]
+    ) -> Episode:
+        """A second robot's episode in `first`'s room (the same walls, finish line and movers): a
+        start of its own, given, or drawn clear of the robots at `others`."""
+        world, scene, field, room = first.scene.map, first.scene, first.extra["field"], first.extra["room"]
+        self._set_finish(world, room.route[0] if room is not None else _start_side(world))
+        if start is None:
+            start = self._start_clear_of(world, room, rng, others)
+        elif self._centre_past_line(start):
+            raise ValueError(f"options['start_pose'] {tuple(start)} is past the finish line")
+        return self._begin(world, scene, field, start, room)
+
+    def _start_clear_of(self, world: Map, room: Any, rng: np.random.Generator, others: list[Pose]) -> Pose:
+        """A start drawn as the first robot's was, its footprint clear of the robots at `others`."""
+        outline = self.robot.outline
+        walls = [geometry.transform_points(p, outline) for p in others]
+        edges = np.vstack([np.hstack([w, np.roll(w, -1, axis=0)]) for w in walls]) if walls else np.zeros((0, 4))
+        for _ in range(200):
+            if room is not None:
+                pose = sample_start_pose(room, rng, self.robot, self.config.start_clearance_m)
+            else:
+                pose = self._sample_fixed_start(world, rng)
+            footprint = geometry.transform_points(pose, outline)
+            if not len(edges) or geometry.polygon_clearance(footprint, edges, 0.2) >= 0.1:
+                return pose
+        raise ValueError(f"{world.source or world.name}: no start for a second robot clear of the first (200 draws)")
+
+    def _begin(self, world: Map, scene: Scene, field: GeodesicField, start: Pose, room: Any) -> Episode:
+        """The episode from its scene, field and start: the oracle path and the task's state."""
         # The oracle path: the origin's geodesic to the line, plus the footprint's rear half so
         # the whole robot is across.
         rear = float(-self.robot.outline[:, 0].min())
@@ -303,10 +339,6 @@ class EscapeTask(ConfiguredTask):
         p, n = self._finish_point.tolist(), self._finish_normal.tolist()
         self._line = (ax, ay, bx, by, p[0], p[1], n[0], n[1])  # plain floats for the step
         self._out = False
-        # Every door of an escape map is closed (a door leaf is part of the room).
-        # (a map's movers walk here too: a course config's objects, `sim_config=`)
-        movers = Movers(list(world.movers)) if world.movers else Movers(())
-        scene = Scene(world, closed_doors=tuple(range(len(world.door_segments))), movers=movers)
         return Episode(scene, start, shortest, extra={"field": field, "room": room})
 
     def _check_map(self, world: Map) -> None:

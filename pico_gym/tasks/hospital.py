@@ -271,7 +271,6 @@ class HospitalTask(ConfiguredTask):
 
     # --- reset -------------------------------------------------------------------------------
     def new_episode(self, rng: np.random.Generator, options: dict[str, Any], start: Pose | None) -> Episode:
-        cfg = self.config
         shortfall: dict[str, tuple[int, int]] = {}
         for _ in range(POPULATE_TRIES):
             # A generated world is drawn again, a fixed map's people, boxes and doors are, until
@@ -293,13 +292,46 @@ class HospitalTask(ConfiguredTask):
                 break
         else:
             raise ValueError(_shortfall_message(shortfall, where, self.fixed_map is None))
-        door_segments = [world.door_segments[d] for d in closed]
         scene = Scene(world, closed, tuple(boxes), Movers(movers))
+        return self._begin(rng, world, cabinets, grid, base_clearance, area, scene, order, start, where)
 
+    def join_episode(
+        self, first: Episode, rng: np.random.Generator, options: dict[str, Any], start: Pose | None, others: list[Pose]
+    ) -> Episode:
+        """A second robot's episode in `first`'s hospital: the same walls, closed doors, boxes and
+        people (the same `Movers`), an order of its own (given or drawn) and a start of its own
+        (given, or drawn in the start area clear of the robots at `others`)."""
+        world, scene = first.scene.map, first.scene
+        grid, base_clearance, cabinets = first.extra["grid"], first.extra["clearance"], first.extra["cabinets"]
+        where = world.source or world.name
+        order = self._order(rng, options.get("cabinet_order"), len(cabinets), where)
+        area = self._start_region(world)
+        return self._begin(rng, world, cabinets, grid, base_clearance, area, scene, order, start, where, others)
+
+    def _begin(
+        self,
+        rng: np.random.Generator,
+        world: Map,
+        cabinets: Any,
+        grid: Grid,
+        base_clearance: FloatArray,
+        area: FloatArray,
+        scene: Scene,
+        order: list[int],
+        start: Pose | None,
+        where: Any,
+        others: list[Pose] | None = None,
+    ) -> Episode:
+        """The episode in a scene: the start (drawn, or checked), the cabinets' fields and legs,
+        what the agent is given, and the task's state."""
+        cfg = self.config
+        targets = [cabinets[i] for i in order]
+        closed, boxes = scene.closed_doors, scene.boxes
+        door_segments = [world.door_segments[d] for d in closed]
         extra_segments = door_segments + [geometry.polygon_to_segments(b) for b in boxes]
         costs = _costs(grid, base_clearance, np.vstack(extra_segments) if extra_segments else np.zeros((0, 4)))
         if start is None:
-            start = self._sample_start(rng, area, scene, where)
+            start = self._sample_start(rng, area, scene, where, others or [])
         elif not in_a_wall(scene.solid_segments(), start, self.robot.outline):  # (a wall: the template says so)
             inside = _costs(grid, base_clearance, np.zeros((0, 4))).reachable_from(*area.mean(axis=0).tolist())
             r, c = _cell(grid, start.x, start.y)
@@ -333,7 +365,8 @@ class HospitalTask(ConfiguredTask):
         self._progress = GeodesicProgress(fields[0], start)
         self._arrival_parts = targets[0].arrival(start, cfg.facing_tolerance_rad)
         self._scene = scene
-        self.episode = Episode(scene, start, shortest, public, {"legs": legs, "fields": fields})
+        extra = {"legs": legs, "fields": fields, "grid": grid, "clearance": base_clearance, "cabinets": cabinets}
+        self.episode = Episode(scene, start, shortest, public, extra)
         return self.episode
 
     def _world(
@@ -441,11 +474,15 @@ class HospitalTask(ConfiguredTask):
             return np.array([(x - 0.01, y - 0.01), (x + 0.01, y - 0.01), (x + 0.01, y + 0.01), (x - 0.01, y + 0.01)])
         raise ValueError(f"{world.source or world.name}: a hospital map needs a 'start_area' (or 'start_pose')")
 
-    def _sample_start(self, rng: np.random.Generator, area: FloatArray, scene: Scene, where: Any) -> Pose:
+    def _sample_start(
+        self, rng: np.random.Generator, area: FloatArray, scene: Scene, where: Any, others: list[Pose] | None = None
+    ) -> Pose:
         world = scene.map
         if world.start_pose is not None and not world.start_area:
             return world.start_pose
         solid = scene.solid_segments()
+        if others:  # (other robots in the world: a start clear of them too)
+            solid = np.vstack([solid, *(_footprint_edges(p, self.robot.outline) for p in others)])
         lo, hi = area.min(axis=0), area.max(axis=0)
         for _ in range(2000):
             x, y = rng.uniform(lo, hi)
@@ -768,6 +805,11 @@ class _Fields:
             rows, cols = self._cells[k]
             field = self._fields[k] = self._costs.field_from(rows, cols, np.zeros(len(rows)))
         return field
+
+
+def _footprint_edges(pose: Pose, outline: FloatArray) -> Segments:
+    placed = geometry.transform_points(pose, outline)
+    return np.hstack([placed, np.roll(placed, -1, axis=0)])
 
 
 def _check_cabinets_apart(world: Map, where: Any) -> None:

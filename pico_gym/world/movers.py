@@ -241,6 +241,25 @@ def _advance_one(state: FloatArray, params: FloatArray, rx: float, ry: float, h:
 
 
 @njit
+def _advance_one_near(
+    state: FloatArray, params: FloatArray, rx: float, ry: float, others: FloatArray, h: float, vel: FloatArray
+) -> bool:
+    """`_advance_one` with other robots at `others` (k, 2): each mover reacts to the robot nearest it."""
+    changed = False
+    for i in range(state.shape[0]):
+        old_x, old_y = vel[i, 0], vel[i, 1]
+        bx, by = rx, ry
+        best = math.hypot(rx - state[i, _X], ry - state[i, _Y])
+        for k in range(others.shape[0]):
+            d = math.hypot(others[k, 0] - state[i, _X], others[k, 1] - state[i, _Y])
+            if d < best:
+                best, bx, by = d, others[k, 0], others[k, 1]
+        _advance_mover(state, params, i, bx, by, h, vel)
+        changed = changed or vel[i, 0] != old_x or vel[i, 1] != old_y
+    return changed
+
+
+@njit
 def _advance_mover(
     state: FloatArray, params: FloatArray, i: int, rx: float, ry: float, h: float, vel: FloatArray
 ) -> None:
@@ -316,6 +335,8 @@ class Movers:
             self.params[i] = (rec.length, rec.width, rec.trigger_radius, rec.velocity, rec.pause_radius_m, rec.repeat)
         self.max_speed_mps = max((r.velocity for r in self.records), default=0.0)
         self.velocity = np.zeros((n, 2))  # each mover's velocity over the last sub-step
+        # Other robots in the world (two robots, `pico_gym.multi`): a mover pauses near any robot.
+        self.other_robots = np.zeros((0, 2))
 
     def __len__(self) -> int:
         return len(self.records)
@@ -325,6 +346,10 @@ class Movers:
         velocity over it is left in `velocity`. Returns whether any velocity changed."""
         if not self.records:
             return False
+        if len(self.other_robots):
+            return _advance_one_near(
+                self.state, self.params, robot_x, robot_y, self.other_robots, duration_s, self.velocity
+            )
         return _advance_one(self.state, self.params, robot_x, robot_y, duration_s, self.velocity)
 
     def advance_along(self, duration_s: float, robot_xy: FloatArray) -> None:

@@ -28,6 +28,8 @@ __all__ = ["KINDS", "MoverRecord", "Movers", "Scene", "SceneSnapshot", "box_corn
 # What a segment is, for bumps by kind (index = the code in `Scene.static_kinds`).
 KINDS = ("wall", "cabinet", "door", "box", "mover")
 WALL, CABINET, DOOR, BOX, MOVER = range(5)
+# Another robot (two robots in one world, `pico_gym.multi`): a bump kind beyond KINDS.
+ROBOT_KIND = 5
 
 
 @dataclass(eq=False)
@@ -119,6 +121,7 @@ class SceneSnapshot:
         map_from_odom: the odometry frame's pose in the map frame (for agent overlays).
         sim_time_s, bumps: for the status line.
         marks: task-specific drawings (e.g. cabinets' arrival squares, order numbers, done flags).
+        others: the other robots' true poses (two robots in one world), drawn in outline.
     """
 
     map: Map
@@ -136,3 +139,4 @@ class SceneSnapshot:
     sim_time_s: float
     bumps: int
     marks: dict[str, Any] = field(default_factory=dict)
+    others: tuple[Pose, ...] = ()  # other robots in the world (`pico_gym.multi`)
