@@ -69,6 +69,51 @@ def reset_rate(env_id: str, seed: int, repeats: int, **kwargs: Any) -> tuple[flo
     return median, 1e3 * statistics.median(times)
 
 
+class TwoRobotRun:
+    """`steps` two-robot steps (`pico_gym.multi`) of fixed random actions, as one timed run."""
+
+    def __init__(self, steps: int, seed: int, env_id: str, **kwargs: Any) -> None:
+        from pico_gym.multi import parallel_env
+
+        self.env = parallel_env(env_id, **kwargs)
+        self.env.reset(seed=seed)
+        rng = np.random.default_rng(seed)
+        space = self.env.robots["pico"].action_space
+        self.actions = rng.uniform(space.low, space.high, size=(steps, 2, len(space.low))).astype(np.float32)
+        self.resets = 0
+
+    def __call__(self) -> int:
+        env = self.env
+        names = env.possible_agents
+        for pair in self.actions:
+            env.step({a: pair[names.index(a)] for a in env.agents})
+            if not env.agents:
+                env.reset()
+                self.resets += 1
+        return len(self.actions)
+
+
+def _two_robot_row(env_id: str, steps: int, seed: int, repeats: int, rows: list[tuple[str, dict[str, Any]]]) -> None:
+    """Two robots in one world against one robot, on the task's first row's settings, interleaved."""
+    from pico_gym.extras import missing
+
+    if not rows or missing("pettingzoo"):
+        return
+    from pico_gym.multi import PLAYS
+
+    if env_id not in PLAYS:
+        return
+    # (the course's two-robot world when the task has it: the 2021 hospital)
+    label, kwargs = next(((lb, kw) for lb, kw in rows if kw.get("map") == "hospital_2021"), rows[0])
+    one, two = EnvRun(steps, seed, env_id, **kwargs), TwoRobotRun(steps, seed, env_id, **kwargs)
+    a, b = interleaved([one, two], repeats)
+    ratio = statistics.median(y / x for x, y in zip(a, b, strict=True))
+    print(
+        f"{'two robots (pico_gym.multi), ' + label.split(', ', 1)[1]:<66} {statistics.median(b):9,.0f} steps/s   "
+        f"{ratio:5.2f}x one robot's steps there ({statistics.median(a):,.0f}/s; a step moves both robots)"
+    )
+
+
 def bench_task(env_id: str, steps: int, seed: int, repeats: int) -> None:
     """A task's rows (`TaskInfo.bench_rows`), with PicoEscape-v0's default row measured in the same
     run as the reference; then the task's resets, and the scan rate on its `lrf_maps`."""
@@ -95,6 +140,7 @@ def bench_task(env_id: str, steps: int, seed: int, repeats: int) -> None:
             f"{label:<66} {statistics.median(rates[k]):9,.0f} steps/s{ratio}   (runs: "
             f"{', '.join(f'{r:,.0f}' for r in rates[k])}; {run.resets} episode ends per {steps:,} steps)"
         )
+    _two_robot_row(env_id, steps, seed, repeats, rows)
     print()
     for label, kwargs in rows:
         rate, ms = reset_rate(env_id, seed, repeats, **kwargs)

@@ -51,6 +51,7 @@ def test_agents_get_only_the_robot_spec() -> None:
     assert not any(isinstance(v, gym.Env) for v in vars(agent).values())
 
 
+@pytest.mark.slow
 def test_classic_escapes_20_fixed_seeds_without_bumping() -> None:
     env = gym.make("PicoEscape-v0")
     agent = make_agent("classic", env)
@@ -152,6 +153,7 @@ def test_bench_json_has_the_documented_fields(tmp_path: Path, capsys: pytest.Cap
     assert data["settings"]["episodes"] == [{"group": "generated", "env_kwargs": {}, "seeds": [7, 8, 9]}]
 
 
+@pytest.mark.slow
 def test_run_prints_the_outcome_and_writes_a_gif(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     gif = tmp_path / "run.gif"
     assert main(["run", "--agent", "classic", "--map", "escape_small", "--gif", str(gif)]) == 0

@@ -70,6 +70,7 @@ def test_render_human_without_a_display_says_so(monkeypatch, capsys: pytest.Capt
     assert "needs a display" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_bench_env_prints_all_figures(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["bench-env", "--steps", "400", "--repeats", "1"]) == 0
     out = capsys.readouterr().out

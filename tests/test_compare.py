@@ -40,6 +40,7 @@ def _numbers(payload):
     return episodes, summary
 
 
+@pytest.mark.slow
 def test_compare_writes_table_json_csv_and_plots_deterministically(tmp_path, capsys):
     _run(tmp_path / "a")
     printed = capsys.readouterr().out
@@ -110,6 +111,7 @@ def test_unknown_agent_is_named(capsys):
     assert callable(add_compare)
 
 
+@pytest.mark.slow
 def test_the_hospital_suite_holds_the_issue_settings_and_tables_each_group(tmp_path) -> None:  # type: ignore[no-untyped-def]
     from pico_gym.agents.compare import compare
 

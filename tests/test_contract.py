@@ -61,6 +61,7 @@ def rollout_digest(env_id: str, seed: int, steps: int = 200) -> str:
     return h.hexdigest()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("env_id", IDS)
 def test_same_seed_same_episode_across_processes(env_id: str) -> None:
     code = textwrap.dedent(f"""

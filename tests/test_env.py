@@ -122,6 +122,7 @@ def test_determinism_in_one_process() -> None:
     assert rollout_digest(5) != rollout_digest(6)
 
 
+@pytest.mark.slow
 def test_determinism_across_processes() -> None:
     code = textwrap.dedent(f"""
         import sys; sys.path.insert(0, {str(Path(__file__).parent)!r})

@@ -7,6 +7,7 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
+import pytest
 
 import pico_gym  # noqa: F401
 from pico_gym.agents import make_agent
@@ -111,11 +112,13 @@ def run_episode(seed: int, options: dict | None = None, steps: int = 6000) -> di
     return info
 
 
+@pytest.mark.slow
 def test_it_finds_the_object_from_a_parked_start() -> None:
     info = run_episode(5, {"phase": "find"}, steps=3000)
     assert info["termination_reason"] == "done" and info["bumps"] == 0
 
 
+@pytest.mark.slow
 def test_the_search_enters_a_deep_room_seen_only_through_its_door() -> None:
     """Dev seed 112: the object's room (the deepest) was seen while exploring only through its
     0.65 m door, so its frontier there is two or three cells, shorter than exploring's minimum;
@@ -126,6 +129,7 @@ def test_the_search_enters_a_deep_room_seen_only_through_its_door() -> None:
     assert info["time_to_find"] < 300.0
 
 
+@pytest.mark.slow
 def test_the_stored_map_is_the_one_from_before_the_touch_so_an_object_in_view_is_unexplained() -> None:
     """Dev seed 466: the object stands 2 m from the parking spot, in view of it. The env places it
     0.5 s after the touch; the map was stored 1.5 s after the agent was sure of the touch, with
@@ -172,6 +176,7 @@ def run_until_parked(seed: int) -> tuple[Any, Any, dict]:
     return env, agent, info
 
 
+@pytest.mark.slow
 def test_parking_puts_the_pose_back_at_the_wall_when_the_wheels_slip() -> None:
     """Dev seed 102: nothing straight ahead in range, so the scan cannot tell the robot stopped at
     the wall; the odometry counting 8 cm past the (refitted) wall ends the reverse, and the pose
@@ -185,6 +190,7 @@ def test_parking_puts_the_pose_back_at_the_wall_when_the_wheels_slip() -> None:
     assert float(np.hypot(*error)) < 0.15  # along it: the odometry's own drift (it was 0.7 m)
 
 
+@pytest.mark.slow
 def test_a_robot_wedged_across_a_door_turns_its_way_through() -> None:
     """Dev seed 107: the robot entered a 0.6 m door at 33 deg and the filters stopped every
     translation (it stood still 45 s, then idle ended the episode); turning slowly towards the way

@@ -70,6 +70,7 @@ def test_rules_hold_over_1000_seeds() -> None:
     assert violations == {}
 
 
+@pytest.mark.slow
 def test_solvability_on_an_independent_grid() -> None:
     """Cross-check the exact route with a flood fill of circumradius-clear cells (2 cm grid)."""
     for seed in range(40):

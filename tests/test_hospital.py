@@ -220,6 +220,7 @@ def _reachable(env: gym.Env, order: tuple[int, ...]) -> bool:
     return all(seen[cell(*Cabinet.of(world, i).dock_point())] for i in order)
 
 
+@pytest.mark.slow
 def test_closed_doors_and_boxes_never_cut_a_target_off() -> None:
     env = hospital(n_boxes=(2, 3), n_closed_doors=(1, 2), n_cabinets=4)
     closed_any = 0
@@ -364,6 +365,7 @@ def test_box_and_mover_bumps_are_counted_as_such() -> None:
 # --- the generator -------------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_generated_hospitals_follow_the_rules_over_1000_seeds() -> None:
     cfg = HospitalConfig()
     for seed in range(1000):
@@ -387,6 +389,7 @@ def test_generated_hospitals_follow_the_rules_over_1000_seeds() -> None:
         assert geometry.polygon_clearance(area, walls) > 0.0
 
 
+@pytest.mark.slow
 def test_every_generated_episode_is_solvable_over_1000_seeds() -> None:
     env = gym.make("PicoHospital-v0", n_boxes=(1, 3), n_closed_doors=(0, 2), n_movers=(0, 2))
     for seed in range(1000):

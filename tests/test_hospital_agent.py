@@ -160,6 +160,7 @@ def test_a_person_in_the_way_is_waited_for_outside_its_pause_radius() -> None:
     assert len(gaps) >= 5 and min(gaps) > pause  # half a second of yielding at least
 
 
+@pytest.mark.slow
 def test_a_tight_gap_beside_a_box_is_squeezed_through() -> None:
     """Generated hospital, seed 127: a box and a closed door leave a gap the footprint passes only
     sideways and without the extra margin for unexplained things: the agent plans with the
@@ -310,6 +311,7 @@ def _kidnap(env: gym.Env, x: float, y: float, theta: float) -> None:
     env.unwrapped._pose = Pose(x, y, theta)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("seed", "to"), [(0, (3.53, 5.53, -1.45)), (3, (4.93, 5.33, -1.65))])
 def test_a_kidnapped_robot_finds_itself_on_the_whole_map_and_finishes(seed: int, to: tuple) -> None:
     env = gym.make("PicoHospital-v0", map="hospital_2019", **QUIET)

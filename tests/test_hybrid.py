@@ -157,6 +157,7 @@ def test_the_shield_remembers_what_the_lrf_saw_before_it_turned_into_the_blind_s
     assert seen == {0.0: False, 4.0: True}
 
 
+@pytest.mark.slow
 def test_the_classic_part_drives_the_rest_of_a_leg_the_policy_got_stuck_on(tmp_path) -> None:  # type: ignore[no-untyped-def]
     """A policy that only ever drives sideways at full speed ends against a wall, the shield stops
     it, and the never-stand-still rule recovers; after `fallback_after` such recoveries on a leg

@@ -60,6 +60,7 @@ def _rollout(seed: int, steps: int = 80) -> list[bytes]:
     return out
 
 
+@pytest.mark.slow
 def test_same_seed_same_two_robot_episode_bit_for_bit() -> None:
     assert _rollout(3) == _rollout(3)
     assert _rollout(3) != _rollout(4)
@@ -95,6 +96,7 @@ def test_robots_driving_into_each_other_stay_apart_and_count_robot_bumps() -> No
     assert infos["pico"]["bumps_by_kind"]["robot"] + infos["taco"]["bumps_by_kind"]["robot"] >= 1
 
 
+@pytest.mark.slow
 def test_the_classic_agent_drives_both_robots_of_the_courses_taco_config() -> None:
     env = pico_gym.parallel_env("PicoHospital-v0", map="hospital_2021", sim_config=TACO)
     obs, infos = env.reset(seed=0)

@@ -196,6 +196,7 @@ def test_an_env_reusing_its_static_shapes_plays_as_a_fresh_one(kwargs: dict) -> 
         ("PicoHospital-v0", {"map": "hospital_2019", "n_movers": (2, 2), "n_boxes": (2, 2)}),
     ],
 )
+@pytest.mark.slow
 def test_the_steps_compiled_motion_is_the_physics_own_step(env_id: str, kwargs: dict) -> None:
     """The env moves the robot in one compiled call (`_drive`); stepping a copy through the
     Python parts it replaces (clip, true twist, `Physics.step`, odometry) gives the same state,
@@ -235,6 +236,7 @@ def test_the_steps_compiled_motion_is_the_physics_own_step(env_id: str, kwargs: 
     assert glided > 50 and stepped > 5  # both paths were taken
 
 
+@pytest.mark.slow
 def test_people_and_carts_are_as_solid_as_walls() -> None:
     """Adversarial driving among walking people (into them, and standing while they walk up):
     the true footprint never overlaps a mover after a step, as it never overlaps a wall."""

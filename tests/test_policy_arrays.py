@@ -34,6 +34,7 @@ def _recorded_observations(n_episodes: int = 3, steps: int = 80) -> list[np.ndar
     return xs
 
 
+@pytest.mark.slow
 def test_numpy_actor_gives_sb3s_actions_to_1e_5():
     sb3 = pytest.importorskip("stable_baselines3")
     model = sb3.PPO.load(SHIPPED_MODEL, device="cpu")

@@ -23,6 +23,7 @@ def test_shipped_model_is_small_and_documented():
     assert "pico-gym train" in card
 
 
+@pytest.mark.slow
 def test_shipped_model_reproduces_its_card():
     meta = json.loads(policy_metadata_path(SHIPPED_MODEL).read_text())
     check = meta["check"]
@@ -35,6 +36,7 @@ def test_shipped_model_reproduces_its_card():
     assert abs(sum(r.bumps > 0 for r in records) - sum(b > 0 for b in check["bumps"])) <= max(1, len(records) // 10)
 
 
+@pytest.mark.slow
 def test_the_shipped_hybrid_policy_reproduces_its_card():
     from pico_gym.agents.hybrid import SHIPPED_HYBRID_POLICY
 

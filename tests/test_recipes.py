@@ -26,6 +26,7 @@ def test_sb3_recipe_trains_and_evaluates(tmp_path: Path) -> None:
     assert (tmp_path / "m.zip").is_file()
 
 
+@pytest.mark.slow
 def test_cleanrl_env_stack_runs_on_gymnasium_1(tmp_path: Path) -> None:
     out = _run([str(RECIPES / "cleanrl_env.py"), "--steps", "3000"], tmp_path)
     assert "ran 3000 steps" in out and "observation (2, 67)" in out

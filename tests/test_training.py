@@ -51,6 +51,7 @@ def tiny_config(tmp_path):
     return load_config(path)
 
 
+@pytest.mark.slow
 def test_train_save_load_act_and_resume(tiny_config, tmp_path):
     run = tmp_path / "run"
     model_path = train(tiny_config, run, seed=0, progress_bar=False)
@@ -180,6 +181,7 @@ def test_a_stop_file_ends_a_run_cleanly(tiny_config, tmp_path):
     assert 1024 <= steps < 100_000 and (run / "model.zip").is_file()
 
 
+@pytest.mark.slow
 def test_init_from_another_runs_checkpoint(tiny_config, tmp_path):
     train(tiny_config, tmp_path / "a", timesteps=1024, progress_bar=False)
     checkpoint = tmp_path / "a" / "checkpoints" / "ppo_1024_steps.zip"
@@ -200,6 +202,7 @@ def test_init_from_another_runs_checkpoint(tiny_config, tmp_path):
     assert "proximity: 1.0" in (tmp_path / "b" / "config.yaml").read_text()
 
 
+@pytest.mark.slow
 def test_init_from_a_policy_zip_carries_its_own_step_count(tiny_config, tmp_path):
     """A policy zip without the count in its name (a run's model.zip, a shipped policy) carries
     on from the count it holds; asking for no more steps than that is refused, not a silent no-op."""
@@ -218,6 +221,7 @@ def test_init_from_a_policy_zip_carries_its_own_step_count(tiny_config, tmp_path
         train(tiny_config, tmp_path / "d", timesteps=2048, progress_bar=False, init_from=not_a_policy)
 
 
+@pytest.mark.slow
 def test_a_run_killed_while_saving_resumes_from_the_last_whole_checkpoint(tiny_config, tmp_path, capsys):
     run = tmp_path / "run"
     train(tiny_config, run, timesteps=1024, seed=0, progress_bar=False)
@@ -251,6 +255,7 @@ def test_resuming_with_another_model_config_is_refused_naming_the_keys(tiny_conf
         train(load_config(other), run, timesteps=2048, seed=0, progress_bar=False)
 
 
+@pytest.mark.slow
 def test_progress_and_eval_records_continue_across_a_resume(tiny_config, tmp_path):
     import csv
 
@@ -317,6 +322,7 @@ def test_a_config_with_two_env_blocks_is_refused(tmp_path):
         load_config(path)
 
 
+@pytest.mark.slow
 def test_the_shipped_point_goal_policy_plays_shielded_and_its_absence_is_named(monkeypatch):
     import pico_gym.agents.ppo as ppo_module
 
@@ -399,6 +405,7 @@ def test_the_training_vec_env_returns_what_dummy_vec_env_returns(tiny_config):
     theirs.close()
 
 
+@pytest.mark.slow
 def test_bench_train_prints_its_rows(capsys):
     from pico_gym.cli import main
 
@@ -712,6 +719,7 @@ def test_a_config_with_shielded_actions_trains(tmp_path):
     assert model_path.exists()
 
 
+@pytest.mark.slow
 def test_a_resume_never_unpickles_a_file_it_did_not_write(tiny_config, tmp_path, capsys):
     """A VecNormalize pickle or a checkpoint zip put into a run folder by anyone else is refused
     on a resume without being loaded (pickles run code); the trainer's own files are in the

@@ -82,10 +82,13 @@ class ExploreAgent(Agent):
         self.wall: Wall | None = None  # the parking wall: (point, unit normal into the building)
         self.park_foot = np.zeros(2)  # where on the parking wall it parks
         self.at_standoff = False
+        self.standoff_extra = 0.0  # how much farther from the wall it stands off (`park_more_m`)
+        self.turn_blocked = 0  # steps the turn at the stand-off point was cut
         self.stuck = 0  # reversing: the seconds in a row it looked touched
         self.reversed_m = 0.0
         self.reverse_log: list[tuple[float, FloatArray]] = []
         self.still_steps = 0
+        self.start_map: np.ndarray | None = None  # the map after the first look round (`relocalise_park_m`)
         self.unstick_until = 0
         self.unsticks = 0
         self._lrf_points = 0

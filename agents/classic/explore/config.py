@@ -46,6 +46,20 @@ class ExploreAgentConfig:
         blind_memory_s: the blind sector is covered by the cells the LRF hit within this long
             (0: ever): odometry drifts over minutes, so an old hit stands where a jamb was, not
             where it is now relative to the pose.
+        search_depth_m: how the search after parking orders the rooms not looked into since: the
+            next is the one whose frontier is nearest by path, less this much per door on the way
+            to it from the start (the course's hint: the object is in the deepest room), so the
+            tour stays short and still leans deep [m]; a negative value: strictly the deepest
+            first (one room at a time by door depth).
+        park_more_m: when the turn to face away at the stand-off point is cut for 2 s (no room to
+            turn there), the stand-off moves 0.1 m farther from the wall, up to this much [m]
+            (0: off).
+        park_turn_margin_m: the stand-off point keeps the footprint's circumradius plus this from
+            everything mapped, so the turn to face away from the wall has room [m] (0: off).
+        relocalise_park_m: on the way back to park, within this of the stand-off point, match the
+            scan against the map as it was after the first look round (the parking wall and the
+            hallway's end, mapped before any drift) within 1.2 m and 11 deg, and take the match:
+            odometry drifts up to a metre over the minutes of a long exploration [m] (0: off).
         square_gain, square_min, square_window_deg: pull the heading towards the building's axes
             (a 2018 hospital is rectilinear): where the scan's pieces of wall agree (their mean
             resultant of 4a is `square_min` or more) within `square_window_deg` of the start's
@@ -84,3 +98,7 @@ class ExploreAgentConfig:
     square_window_deg: float = 5.0
     safety_floor_m: float = 0.015
     blind_memory_s: float = 240.0
+    search_depth_m: float = -1.0
+    relocalise_park_m: float = 0.0
+    park_turn_margin_m: float = 0.0
+    park_more_m: float = 0.0

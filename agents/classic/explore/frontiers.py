@@ -78,11 +78,17 @@ class FrontierPlanner:
         return costs, clearance, free
 
     def plan_to_frontier(
-        self, pose: Pose, step: int, unknown: np.ndarray, within: np.ndarray | None = None, min_cells: int | None = None
+        self,
+        pose: Pose,
+        step: int,
+        unknown: np.ndarray,
+        within: np.ndarray | None = None,
+        min_cells: int | None = None,
+        bonus: np.ndarray | None = None,
     ) -> bool:
         """Plan to the best frontier: free cells (of `within`, else all) next to `unknown` cells
-        (nearest by path, weighted by size); frontiers smaller than `frontier_min_cells` count
-        only if they open into the unknown."""
+        (nearest by path, weighted by size, less `bonus` at the frontier's nearest cell [m]);
+        frontiers smaller than `frontier_min_cells` count only if they open into the unknown."""
         cfg = self.config
         min_cells = cfg.frontier_min_cells if min_cells is None else min_cells
         costs, clearance, free = self.costs(pose, step)
@@ -112,6 +118,8 @@ class FrontierPlanner:
                 continue
             self.frontiers.append(spot)
             score = float(d[k]) - 0.03 * min(len(cells), 60)
+            if bonus is not None:
+                score -= float(bonus[cells[k, 0], cells[k, 1]])
             if score < best_score:
                 best, best_score = (tuple(cells[k]), spot), score
         if best is None:

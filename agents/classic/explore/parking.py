@@ -91,7 +91,14 @@ def parking_spot(
     half = motion.half_width + 0.05
     depth = config.park_standoff_m + motion.half_depth + 0.05
     beside = (n > 0.07) & (n < depth)
+    # Room to turn round at the stand-off point (it arrives facing the wall and turns to face
+    # away): nothing mapped within the footprint's circumradius and a margin (a start near a
+    # side wall of a narrow hallway put the stand-off where the turn was cut forever).
+    turn_room = math.hypot(motion.half_width, motion.half_depth) + config.park_turn_margin_m
     for t in sorted(np.arange(-0.6, 0.61, 0.05), key=abs):
-        if not np.any(beside & (np.abs(u - t) < half)):
-            return refitted, foot + along * t
+        if np.any(beside & (np.abs(u - t) < half)):
+            continue
+        if config.park_turn_margin_m > 0.0 and np.any(np.hypot(u - t, n - config.park_standoff_m) < turn_room):
+            continue
+        return refitted, foot + along * t
     return refitted, foot

@@ -147,6 +147,29 @@ class OdometryPose:
             self.pose = Pose(float(x), float(y), float(th))
             self.fits += 1
 
+    def relocalise(
+        self, ranges: FloatArray, angles: FloatArray, logodds: np.ndarray, occupancy: OccupancyMap, range_max: float
+    ) -> bool:
+        """Correlative matching against a stored map over a wide window (1.2 m, 11 deg, coarse
+        then fine); the pose moves to the match when it explains the scan clearly better than
+        the prediction. Returns whether it moved."""
+        points = scan_points(ranges, angles, min(self.config.map_range_m, range_max), 180)
+        if len(points) < 40:
+            return False
+        g = occupancy.grid
+        p = self.pose
+        x, y, th, _, centre = _best_pose(
+            points, logodds, g.x0, g.y0, g.resolution, p.x, p.y, p.theta, 1.2, 0.1, 0.2, 0.02, 3.0
+        )
+        x, y, th, score, _ = _best_pose(
+            points, logodds, g.x0, g.y0, g.resolution, x, y, th, 0.1, 0.02, 0.02, 0.005, 3.0
+        )
+        if score < 1.3 * centre + 10.0 or score < 0.4 * 3.0 * len(points):
+            return False
+        self.pose = Pose(float(x), float(y), float(th))
+        self.fits += 1
+        return True
+
     def square(self, ranges: FloatArray, angles: FloatArray, looking: bool) -> None:
         """The heading pulled towards the building's axes (`square_gain`); while `looking` round
         at the start, the axes are learnt (summed in the agent frame)."""

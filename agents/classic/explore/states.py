@@ -69,6 +69,8 @@ def look(agent: ExploreAgent, ranges: FloatArray, near: FloatArray, odom: Pose, 
             back = np.array([math.cos(start.theta), math.sin(start.theta)])
             agent.wall = (np.array([start.x, start.y]) - 0.7 * back, back)
         agent._go(State.SEARCH if find else State.EXPLORE)
+        if agent.config.relocalise_park_m > 0.0 and not find:
+            agent.start_map = agent.occupancy.logodds.copy()  # the hallway's end, before any drift
         if find:
             agent.finder.stored = agent.occupancy.logodds.copy()
             agent.occupancy.checked[:] = False
@@ -118,9 +120,20 @@ def park(agent: ExploreAgent, ranges: FloatArray, near: FloatArray, odom: Pose, 
             agent.occupancy, agent.parking_wall(), agent.odometry.start, agent.motion, cfg
         )
     point, normal = agent.parking_wall()
-    standoff = agent.park_foot + normal * cfg.park_standoff_m
+    standoff = agent.park_foot + normal * (cfg.park_standoff_m + agent.standoff_extra)
     here = np.array([agent.pose.x, agent.pose.y])
     distance = float(np.linalg.norm(standoff - here))
+    if (
+        agent.start_map is not None
+        and distance < cfg.relocalise_park_m
+        and not agent.at_standoff
+        and agent.state_steps % agent._steps(2.0) == 1
+    ):
+        if agent.odometry.relocalise(
+            ranges, agent.angles, agent.start_map, agent.occupancy, agent.spec.lrf.range_max_m
+        ):
+            agent.planner.path = []  # plan again from where it is
+            return 0.0, 0.0, 0.0
     if distance < 0.4:  # (the path ends within 0.2 m of its goal cell)
         return _at_standoff(agent, near, standoff, here, distance, math.atan2(normal[1], normal[0]))
     if agent.planner.replan_due(agent.steps):
@@ -151,7 +164,17 @@ def _at_standoff(
     error = wrap_angle(heading - agent.pose.theta)
     # A door jamb beside the parking spot may leave no room to turn the last few degrees: within
     # the rule's 15 deg, reverse at the heading it has (the reverse corrects it if it can).
-    cramped = abs(error) < 0.25 and filtered(near, 0.0, 0.0, heading_rate(error, agent.motion), agent.motion)[2] == 0.0
+    turn = heading_rate(error, agent.motion)
+    blocked = filtered(near, 0.0, 0.0, turn, agent.motion)[2] == 0.0
+    cramped = abs(error) < 0.25 and blocked
+    # A turn the filter cuts far from the heading: no room to turn here. Stand off farther from
+    # the wall (the reverse goes back to it anyway), up to `park_more_m` more.
+    agent.turn_blocked = agent.turn_blocked + 1 if blocked and abs(error) >= 0.25 else 0
+    if agent.turn_blocked > agent._steps(2.0) and agent.standoff_extra < agent.config.park_more_m - 1e-9:
+        agent.standoff_extra += 0.1
+        agent.turn_blocked = 0
+        agent.at_standoff = False
+        return 0.0, 0.0, 0.0
     if distance < 0.06 and (abs(error) < 0.03 or cramped):
         agent._go(State.REVERSE)
         agent.stuck = 0
@@ -259,17 +282,33 @@ def search(agent: ExploreAgent, ranges: FloatArray, near: FloatArray, odom: Pose
         large = component_sizes(unseen) >= 30
         if finder.depths is not None:
             depths = finder.depths[r0:r1, c0:c1]
-            # Any frontier of a large unseen part counts, however short (a room glimpsed through
-            # its door leaves a frontier of two or three cells there).
-            for d in range(int(depths.max()), 0, -1):
-                if planner.plan_to_frontier(agent.pose, step, large & (depths == d), min_cells=1):
-                    return _follow(agent, near)
+            if _search_next(agent, large, depths, step):
+                return _follow(agent, near)
         if not planner.plan_to_frontier(agent.pose, step, large, min_cells=1) and not planner.plan_to_frontier(
             agent.pose, step, unseen
         ):
             occupancy.checked[:] = False  # looked everywhere: look again
             return 0.0, 0.0, 0.8
     return _follow(agent, near)
+
+
+def _search_next(agent: ExploreAgent, large: np.ndarray, depths: np.ndarray, step: int) -> bool:
+    """Plan to the next room not looked into since parking (`ExploreAgentConfig.search_depth_m`):
+    the nearest by path less a bonus per door on the way, or strictly the deepest first. Any
+    frontier of a large unseen part counts, however short (a room glimpsed through its door leaves
+    a frontier of two or three cells there)."""
+    planner, weight = agent.planner, agent.config.search_depth_m
+    if weight < 0.0:
+        for d in range(int(depths.max()), 0, -1):
+            if planner.plan_to_frontier(agent.pose, step, large & (depths == d), min_cells=1):
+                return True
+        return False
+    # Each frontier cell's bonus: the depth of the unseen part it borders (the 3 x 3 maximum).
+    unseen_depth = np.where(large, depths, 0)
+    padded = np.pad(unseen_depth, 1)
+    rows, cols = unseen_depth.shape
+    around = np.max([padded[dr : dr + rows, dc : dc + cols] for dr in range(3) for dc in range(3)], axis=0)
+    return planner.plan_to_frontier(agent.pose, step, large, min_cells=1, bonus=weight * around)
 
 
 def approach(agent: ExploreAgent, ranges: FloatArray, near: FloatArray, odom: Pose, delta: Pose) -> Command:
