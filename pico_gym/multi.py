@@ -72,13 +72,13 @@ class PicoParallelEnv(ParallelEnv):
         self.render_mode = render_mode
         self.possible_agents = list(ROBOT_NAMES[:n_robots])
         self.agents: list[str] = []
-        # Each robot's env: the glide shortcut off (another robot may stand anywhere a step reaches).
+        # Each robot's env (its free-space shortcut keeps clear of the other robot:
+        # `PicoEnv.set_other_robots`).
         made = {
             name: gym.make(
                 env_id,
                 render_mode=render_mode if name == "pico" else None,
                 sim_config=sim_config,
-                free_space_shortcut=False,
                 _robots=n_robots,
                 **options,
             )

@@ -31,7 +31,6 @@ from pico_gym.robot import RobotConfig
 from pico_gym.sensors.odometry import integrate
 from pico_gym.types import Pose, Segments
 from pico_gym.validate import flag, number
-from pico_gym.world import geometry
 from pico_gym.world.geometry import footprint_clearance
 from pico_gym.world.scene import KINDS, MOVER, ROBOT_KIND, WALL, Scene
 
@@ -61,6 +60,20 @@ def glide(
     angle = angle + w * duration_s  # keep the body's unwrapped angle continuous
     c, s = math.cos(angle), math.sin(angle)
     return x, y, angle, c * vx - s * vy, s * vx + c * vy
+
+
+@njit
+def _place_outline(x: float, y: float, theta: float, outline: np.ndarray, out: Segments, first: int) -> None:
+    """The edges of `outline` (k, 2; body frame) placed at (x, y, theta), into rows
+    first .. first + k of `out` (each edge from one vertex to the next, closing the polygon)."""
+    c, s = math.cos(theta), math.sin(theta)
+    k = outline.shape[0]
+    for i in range(k):
+        j = (i + 1) % k
+        out[first + i, 0] = x + c * outline[i, 0] - s * outline[i, 1]
+        out[first + i, 1] = y + s * outline[i, 0] + c * outline[i, 1]
+        out[first + i, 2] = x + c * outline[j, 0] - s * outline[j, 1]
+        out[first + i, 3] = y + s * outline[j, 0] + c * outline[j, 1]
 
 
 @njit
@@ -278,6 +291,7 @@ class Physics:
         self.bumps_by_kind = [0] * len(KINDS)
         self._other_bodies: list[pymunk.Body] = []  # other robots in the world (`add_other_robots`)
         self._other_edges = np.zeros((0, 4))
+        self._other_poses: list[Pose] | None = None  # placed, not yet written into pymunk
         self.drives_movers = True
         self.bump_log: list[str] = []  # the kind of every bump, in order
         self.time_s = 0.0
@@ -341,6 +355,7 @@ class Physics:
                 else:
                     self.space.add(shape)
             self._other_bodies.append(body)
+        self._other_edges = np.zeros((len(self._other_bodies) * len(self._outline), 4))
         if n and len(self.bumps_by_kind) == len(KINDS):
             self.space.on_collision(
                 _ROBOT, _KIND_BASE + ROBOT_KIND, begin=self._begin, separate=self._separate, data=ROBOT_KIND
@@ -348,17 +363,30 @@ class Physics:
             self.bumps_by_kind.append(0)
 
     def place_other_robots(self, poses: list[Pose]) -> None:
-        """Where the other robots stand for the next step (they do not move during it)."""
-        outline = self._outline
-        edges = []
-        for body, pose in zip(self._other_bodies, poses, strict=True):
+        """Where the other robots stand for the next step (they do not move during it). Their
+        bodies are written into pymunk only when pymunk steps (a glide needs their edges only)."""
+        if len(poses) != len(self._other_bodies):
+            raise ValueError(f"{len(self._other_bodies)} other robot(s) in this world, got {len(poses)} poses")
+        k = len(self._outline)
+        for i, pose in enumerate(poses):
+            _place_outline(pose.x, pose.y, pose.theta, self._outline, self._other_edges, i * k)
+        self._other_poses = poses
+
+    def _write_other_bodies(self) -> None:
+        """Stand the other robots' bodies where they were placed (before pymunk steps)."""
+        if self._other_poses is None:
+            return
+        for body, pose in zip(self._other_bodies, self._other_poses, strict=True):
             body.position = (pose.x, pose.y)
             body.angle = pose.theta
             body.velocity = (0.0, 0.0)
             body.angular_velocity = 0.0
-            placed = geometry.transform_points(pose, outline)
-            edges.append(np.hstack([placed, np.roll(placed, -1, axis=0)]))
-        self._other_edges = np.vstack(edges) if edges else np.zeros((0, 4))
+        self._other_poses = None
+
+    @property
+    def other_edges(self) -> Segments:
+        """The other robots' footprints' edges as placed (`place_other_robots`), map frame."""
+        return self._other_edges
 
     @classmethod
     def from_scene(
@@ -421,6 +449,7 @@ class Physics:
             self._glide(vx, vy, w, n * h)
             return
         self._flush()
+        self._write_other_bodies()
         if self._mover_bodies and (self._bodies_stale or not self.drives_movers):
             self._place_bodies()  # where the movers went while the robot glided (or another robot's step moved them)
         body = self.body

@@ -121,6 +121,26 @@ def test_mover_starts_when_triggered_pauses_near_the_robot_and_resumes() -> None
     assert not m.paused(0) and m.poses()[0, 0] > x
 
 
+def test_a_mover_pauses_near_another_robot_while_this_one_glides() -> None:
+    # Two robots (pico_gym.multi): the robot that drives the movers glides far away, the other
+    # stands in the mover's way; the glide's sub-steps see both, as pymunk's do.
+    pause = PERSON.pause_radius_m
+    runs = {}
+    for glides in (False, True):
+        m = Movers([PERSON])
+        m.advance(0.01, 1.0, 0.0)  # triggered
+        m.other_robots = np.array([[1.0 + pause - 0.01, 0.0]])
+        if glides:
+            out = np.zeros((4, 4))
+            m.glide(20.0, 20.0, 0.0, 0.0, 0.0, 0.0, 400, 0.01, out)  # 4 s: 2 m, were it free
+        else:
+            for _ in range(400):
+                m.advance(0.01, 20.0, 20.0)
+        runs[glides] = m.poses()[0, 0]
+    # Walked up to the other robot's pause radius (x = 0.99), and waits there.
+    assert runs[True] == runs[False] and 0.98 < runs[True] <= 1.0
+
+
 def test_mover_ping_pongs_with_repeat_and_stops_without() -> None:
     m = Movers([PERSON])
     xs = []

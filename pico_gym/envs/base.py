@@ -49,7 +49,7 @@ _NO_EXTRAS = np.zeros(0)
 
 
 _IDENTITY = np.eye(3)
-_NO_MOVERS = (np.zeros((0, 10)), np.zeros((0, 6)), np.zeros((0, 2)), np.zeros((0, 4)))
+_NO_MOVERS = (np.zeros((0, 10)), np.zeros((0, 6)), np.zeros((0, 2)), np.zeros((0, 4)), np.zeros((0, 2)))
 
 
 @njit
@@ -59,7 +59,7 @@ def _drive(
     circumradius: float, margin: float, substeps: int, substep_s: float,
     odom_x: float, odom_y: float, odom_theta: float, px: float, py: float, ptheta: float,
     outline: FloatArray, solid: Segments, cap: float,
-    movers: tuple[FloatArray, FloatArray, FloatArray, Segments], mover_speed: float,
+    movers: tuple[FloatArray, FloatArray, FloatArray, Segments, FloatArray], mover_speed: float,
 ) -> tuple[int, float, float, float, float, float, float, float, float, float,
            float, float, float, float, float, float, float, float, float, float]:  # fmt: skip
     """A step's motion up to the scan, compiled: the command clipped to the limits, the true twist
@@ -81,9 +81,9 @@ def _drive(
     if not (may_glide and room > sweep(tvx, tvy, tw, dt, circumradius) + margin):
         return 0, vx, vy, w, tvx, tvy, tw, ox, oy, otheta, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     glided = 1
-    state, params, velocity, edges = movers
+    state, params, velocity, edges, others = movers
     if state.shape[0] > 0 and glide_movers(
-        state, params, x0, y0, a0, tvx, tvy, tw, substeps, substep_s, velocity, edges
+        state, params, x0, y0, a0, tvx, tvy, tw, substeps, substep_s, velocity, edges, others
     ):
         glided = 2
     x, y, angle, velocity_x, velocity_y = glide(x0, y0, a0, tvx, tvy, tw, substeps * substep_s)
@@ -355,12 +355,29 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self._n_others, self._drives_movers = n, drives_movers
 
     def set_other_robots(self, poses: list[Pose]) -> None:
-        """Where the other robots stand now (before this robot's step, and before a rescan)."""
+        """Where the other robots stand now (before this robot's step, and before a rescan).
+
+        They stand still through this robot's step, so the step may glide (`Physics`' free-space
+        shortcut) when its sweep stays clear of their footprints too: the room the step has is cut
+        to the clearance to them. The robot that drives the movers glides them with every robot
+        in view (a mover pauses near any robot); another robot's glide leaves them be."""
         self._other_poses = list(poses)
-        self.physics.place_other_robots(poses)
-        movers = self.scene.movers
-        if self._drives_movers and len(movers):
-            movers.other_robots = np.array([(p.x, p.y) for p in poses], dtype=np.float64).reshape(-1, 2)
+        physics = self.physics
+        physics.place_other_robots(poses)
+        scene = self.scene
+        if scene.has_movers:
+            movers = scene.movers
+            if self._drives_movers:
+                movers.other_robots = np.array([(p.x, p.y) for p in poses], dtype=np.float64).reshape(-1, 2)
+                arrays = (movers.state, movers.params, movers.velocity, scene.mover_segments, movers.other_robots)
+            else:
+                arrays = (*_NO_MOVERS[:3], scene.mover_segments, _NO_MOVERS[4])
+            self._mover_arrays = arrays
+        self._room = min(self._room, self._clearance_to_others(self._pose))
+
+    def _clearance_to_others(self, pose: Pose) -> float:
+        """The footprint's clearance to the other robots' footprints (capped)."""
+        return footprint_clearance(pose.x, pose.y, pose.theta, self._outline, self.physics.other_edges, CLEARANCE_CAP_M)
 
     def rescan(self) -> dict[str, np.ndarray]:
         """Scan again where the robot stands (the other robots placed since): the observation."""
@@ -372,7 +389,7 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         """What moves that the LRF sees: the movers' edges, and the other robots' footprints."""
         if not self._n_others:
             return self._movers
-        parts = [self.physics._other_edges]
+        parts = [self.physics.other_edges]
         if self._movers is not None:
             parts.insert(0, self._movers)
         return np.vstack(parts)
@@ -393,7 +410,9 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self._mover_speed = scene.max_mover_speed_mps
         movers = scene.movers
         self._mover_arrays = (
-            (movers.state, movers.params, movers.velocity, scene.mover_segments) if scene.has_movers else _NO_MOVERS
+            (movers.state, movers.params, movers.velocity, scene.mover_segments, movers.other_robots)
+            if scene.has_movers
+            else _NO_MOVERS
         )
         if self.physics is not None:
             self.physics.release()  # its static shapes, for this episode's physics
@@ -484,6 +503,10 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
             moved = math.hypot(pose.x - previous.x, pose.y - previous.y)
             turned = abs(wrap_angle(pose.theta - previous.theta))
             clearance = self._footprint_clearance(pose)
+        if self._n_others:
+            to_others = self._clearance_to_others(pose)
+            clearance = min(clearance, to_others)
+            self._room = min(self._room, to_others)
         self._pose = pose
         self.steps += 1
         self.sim_time_s = self.steps * dt

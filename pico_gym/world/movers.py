@@ -182,9 +182,11 @@ def _advance_gliding(
     n: int,
     h: float,
     vel: FloatArray,
+    others: FloatArray,
 ) -> None:
     """`n` sub-steps while the robot follows a constant body-frame twist from (x, y, theta): its
-    position at the start of sub-step k is the exact integral of the twist over k h."""
+    position at the start of sub-step k is the exact integral of the twist over k h; other robots
+    stand at `others` (k, 2) (none: `_advance_one_near` is `_advance_one`, bit for bit)."""
     c0, s0 = math.cos(theta), math.sin(theta)
     for k in range(n):
         t = k * h
@@ -197,7 +199,7 @@ def _advance_gliding(
             cx = (c0 - math.cos(a)) / w
             rx = x + vx * sx - vy * cx
             ry = y + vx * cx + vy * sx
-        _advance_one(state, params, rx, ry, h, vel)
+        _advance_one_near(state, params, rx, ry, others, h, vel)
 
 
 @njit
@@ -214,10 +216,11 @@ def glide_movers(
     h: float,
     vel: FloatArray,
     out: Segments,
+    others: FloatArray,
 ) -> bool:
     """`_advance_gliding`, then the boxes' edges into `out`; True when a mover was moving at the
     end (its velocity is then zeroed: the bodies sleep through a glide)."""
-    _advance_gliding(state, params, x, y, theta, vx, vy, w, n, h, vel)
+    _advance_gliding(state, params, x, y, theta, vx, vy, w, n, h, vel, others)
     _write_segments(state, params, out)
     moving = False
     for i in range(vel.shape[0]):
@@ -366,7 +369,9 @@ class Movers:
         mover had a velocity, which is then zeroed (see `Physics`: bodies sleep through a glide)."""
         if not self.records:
             return False
-        moving = glide_movers(self.state, self.params, x, y, theta, vx, vy, w, n, duration_s, self.velocity, out)
+        moving = glide_movers(
+            self.state, self.params, x, y, theta, vx, vy, w, n, duration_s, self.velocity, out, self.other_robots
+        )
         return bool(moving)
 
     def poses(self) -> FloatArray:
