@@ -27,7 +27,7 @@ def test_shipped_model_is_small_and_documented():
 def test_shipped_model_reproduces_its_card():
     meta = json.loads(policy_metadata_path(SHIPPED_MODEL).read_text())
     check = meta["check"]
-    env = gym.make("PicoEscape-v0", **(meta.get("env_kwargs") or {}))
+    env = gym.make("PicoEscape-v0", **check.get("env_kwargs", meta.get("env_kwargs") or {}))
     agent = make_agent("ppo", env)
     records = [run_episode(env, agent, seed, "ppo") for seed in check["seeds"]]
     successes = sum(r.success for r in records)
@@ -45,7 +45,7 @@ def test_the_shipped_hybrid_policy_reproduces_its_card():
     assert SHIPPED_HYBRID_POLICY.stat().st_size < 1e6
     assert f"{100 * meta['evaluation']['generated']['success_rate']:.1f} %" in card
     check = meta["check"]
-    env = gym.make("PicoHospital-v0", **(meta.get("env_kwargs") or {}))
+    env = gym.make("PicoHospital-v0", **check.get("env_kwargs", meta.get("env_kwargs") or {}))
     agent = make_agent("hybrid", env)
     records = [run_episode(env, agent, seed, "hybrid") for seed in check["seeds"]]
     assert abs(sum(r.success for r in records) - sum(check["success"])) <= max(1, len(records) // 10)

@@ -74,8 +74,9 @@ TARGETS = {
     ),
     "hospital-hybrid": Target(
         "hybrid", SHIPPED_HYBRID_POLICY, SHIPPED_HYBRID_POLICY.parent / "HOSPITAL_HYBRID_CARD.md",
-        "PicoHospital-v0", "PicoHospital-v0's generated hospitals with 0-3 boxes and 0-2 people, driving NAVIGATE "
-        "inside the hybrid agent's loop (`pico_gym.train.hybrid.HybridTraining`)", 0.95, 0.01, False,
+        "PicoHospital-v0", "PicoHospital-v0's hospitals, driving NAVIGATE inside the hybrid agent's loop "
+        "(`pico_gym.train.hybrid.HybridTraining`)", 0.95, 0.01, False,
+        variants=(("narrow family", {"family": "narrow"}), ("crowded family", {"family": "crowded"})),
     ),
 }  # fmt: skip
 
@@ -217,16 +218,18 @@ def ship(
     export_actor(model, meta.get("obs_norm")).save(SHIPPED_POLICY)
 
     seeds = range(seed, seed + episodes)
-    summary, records = _evaluate(target, seeds, meta.get("env_kwargs") or {})
+    # The card's rows: the task's generated worlds with its defaults (whatever the run evaluated
+    # on while training, `env_kwargs`), then the target's variants of them.
+    summary, records = _evaluate(target, seeds, {})
     rows = [_row(f"generated {task_info(target.env_id).worlds}", summary)]
     evaluation = {"generated": {"seeds": [seeds[0], seeds[-1]], **summary.to_dict()}}
     if realism:
-        hard, _ = _evaluate(target, seeds, {**(meta.get("env_kwargs") or {}), **REALISM})
+        hard, _ = _evaluate(target, seeds, REALISM)
         rows.append(_row("noise x2 + slip", hard))
         evaluation["realism"] = {"seeds": [seeds[0], seeds[-1]], "env_kwargs": REALISM, **hard.to_dict()}
     pooled = []
     for name, kwargs in target.variants:
-        summary_v, records_v = _evaluate(target, seeds, {**(meta.get("env_kwargs") or {}), **kwargs})
+        summary_v, records_v = _evaluate(target, seeds, kwargs)
         rows.append(_row(name, summary_v))
         evaluation[name] = {"seeds": [seeds[0], seeds[-1]], "env_kwargs": kwargs, **summary_v.to_dict()}
         pooled += records_v
@@ -244,6 +247,7 @@ def ship(
         picked=picked,
         wall_clock_note=note,
         check={
+            "env_kwargs": {},
             "seeds": [r.seed for r in check],
             "success": [r.success for r in check],
             "bumps": [r.bumps for r in check],
@@ -252,6 +256,16 @@ def ship(
     policy_metadata_path(SHIPPED_MODEL).write_text(json.dumps(meta, indent=1, default=str) + "\n")
     _write_card(meta, config, rows, target)
     return SHIPPED_MODEL
+
+
+def _train_worlds(config: dict[str, Any]) -> str:
+    """The card's words for the worlds a run trained in: its env kwargs and variants, if any."""
+    settings = config.get("pico-gym", {})
+    kwargs, variants = settings.get("train_env_kwargs") or {}, settings.get("train_env_variants") or []
+    words = f", train env kwargs {kwargs}" if kwargs else ""
+    if variants:
+        words += f", its episodes drawn in turn from {len(variants)} variants: " + "; ".join(map(str, variants))
+    return words
 
 
 def _policy_kind(config: dict[str, Any]) -> str:
@@ -288,7 +302,8 @@ def _write_card(meta: dict[str, Any], config: dict[str, Any], rows: list[str], t
         "",
         "## What it is",
         f"- PPO (stable-baselines3 {run.get('versions', {}).get('stable-baselines3', '?')}), {_policy_kind(config)}, "
-        f"trained on {target.trained_on} (seeds >= 1,000,000), env kwargs {meta.get('env_kwargs') or {}}.",
+        f"trained on {target.trained_on} (seeds >= 1,000,000){_train_worlds(config)}; the run's own evaluations "
+        f"during training on env kwargs {meta.get('env_kwargs') or {}}.",
         *([f"- {target.privileged}"] if target.privileged else []),
         *(
             [
