@@ -304,6 +304,7 @@ class PicoEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self._trajectory_blocks: list[FloatArray] = []
         self._n_others, self._drives_movers = 0, True  # other robots in the world (`expect_other_robots`)
         self._other_poses: list[Pose] = []
+        self._room: float = 0.0  # the room the next step has before anything can touch the footprint [m]
 
     # --- the episode ---------------------------------------------------------------------
     def reset(
