@@ -987,6 +987,11 @@ def parking_side(world: Map, wall: FloatArray, resolution: float) -> tuple[Float
     raise MapError(f"{where}: parking_wall: neither side of it has room for the robot inside a closed building")
 
 
+def _percent(rate: float) -> str:
+    """A rate as a percentage; "-" when there was nothing to count (NaN: no episode parked)."""
+    return "-" if math.isnan(rate) else f"{100 * rate:.1f} %"
+
+
 class ExploreMetrics(EpisodeMetrics):
     """What an explore episode's record carries beyond the common core: parked, explored (every
     room seen when it parked), coverage, the parking error and time, and the IoU of the agent's
@@ -994,7 +999,7 @@ class ExploreMetrics(EpisodeMetrics):
 
     columns = (
         ("parked", lambda s: f"{100 * s.metrics['parked_rate']:.1f} %"),
-        ("found, of the parked", lambda s: f"{100 * s.metrics['found_of_parked_rate']:.1f} %"),
+        ("found, of the parked", lambda s: _percent(s.metrics["found_of_parked_rate"])),
         ("every room seen", lambda s: f"{100 * s.metrics['rooms_covered_rate']:.1f} %"),
         ("timeouts, 95 % seen", lambda s: f"{s.metrics['covered_timeouts']}"),
     )
@@ -1042,7 +1047,7 @@ class ExploreMetrics(EpisodeMetrics):
                 "explored and parked",
                 f"{100 * block['explored_and_parked_rate']:.1f} % (parked {100 * block['parked_rate']:.1f} %)",
             ),
-            ("object found, of the parked", f"{100 * block['found_of_parked_rate']:.1f} %"),
+            ("object found, of the parked", _percent(block["found_of_parked_rate"])),
             ("every room >= 95 % seen", f"{100 * block['rooms_covered_rate']:.1f} % of episodes"),
             ("parking heading error, worst", f"{block['parking_heading_max_deg']:.1f} deg"),
             ("time to park, median", f"{block['time_to_park_median_s']:.1f} s"),

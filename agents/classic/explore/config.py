@@ -60,6 +60,21 @@ class ExploreAgentConfig:
             scan against the map as it was after the first look round (the parking wall and the
             hallway's end, mapped before any drift) within 1.2 m and 11 deg, and take the match:
             odometry drifts up to a metre over the minutes of a long exploration [m] (0: off).
+        park_wall_from_start: refit the parking wall (and choose the stand-off's foot) on the map
+            as it was after the first look round, not the map at parking time: scans of the
+            hallway's end taken on the way back carry the exploration's drift, and a wall refitted
+            on them tilted the reverse by up to 5 deg.
+        touch_sets_heading: at the touch the heading becomes the parking wall's normal (the
+            contact turns the rear flush with the wall): a corner touching first turns the robot
+            without the odometry seeing it, and the search after parking then drifts by that.
+        park_overrun_m: the reverse ends as touching once the odometry counts this far past the
+            wall as mapped (wheels slipping against it), without waiting for the scan's evidence
+            of the touch; a drifted pose reached it short of the wall [m].
+        park_settle_s: near the stand-off point (within 0.12 m) but held still this long (the
+            safety filter cuts the last few centimetres: a drifted pose put the point close to
+            a side wall), take where it stands as the stand-off point and turn there; and turn in
+            place there (the servo's last centimetres, cut by the filter, stopped the turn too)
+            [s] (0: off).
         square_gain, square_min, square_window_deg: pull the heading towards the building's axes
             (a 2018 hospital is rectilinear): where the scan's pieces of wall agree (their mean
             resultant of 4a is `square_min` or more) within `square_window_deg` of the start's
@@ -102,3 +117,7 @@ class ExploreAgentConfig:
     relocalise_park_m: float = 0.0
     park_turn_margin_m: float = 0.0
     park_more_m: float = 0.0
+    park_wall_from_start: bool = False
+    touch_sets_heading: bool = False
+    park_overrun_m: float = 0.08
+    park_settle_s: float = 0.0

@@ -49,12 +49,18 @@ def fit_wall(ranges: FloatArray, angles: FloatArray, pose: Pose, start: Pose) ->
 
 
 def parking_spot(
-    occupancy: OccupancyMap, wall: Wall, start: Pose, motion: MotionConfig, config: ExploreAgentConfig
+    occupancy: OccupancyMap,
+    wall: Wall,
+    start: Pose,
+    motion: MotionConfig,
+    config: ExploreAgentConfig,
+    logodds: np.ndarray | None = None,
 ) -> tuple[Wall, FloatArray]:
     """The parking wall refitted to the map near the start, and the foot of the stand-off on it:
     behind the start if the way back from the stand-off is clear, else the nearest place along
     the wall that is (a room's wall may meet the parking wall beside the start). The wall fitted
-    at the start from one scan, 0.35-1 m away, may be off by 10 deg."""
+    at the start from one scan, 0.35-1 m away, may be off by 10 deg. `logodds`: the map to fit
+    on (default: the occupancy map as it is now)."""
     point, normal = wall
     along = np.array([normal[1], -normal[0]])
     start_xy = np.array([start.x, start.y])
@@ -63,7 +69,8 @@ def parking_spot(
     k = int(2.0 / g.resolution)
     r0 = int((foot[1] - g.y0) / g.resolution)
     c0 = int((foot[0] - g.x0) / g.resolution)
-    window = occupancy.logodds[max(r0 - k, 0) : r0 + k + 1, max(c0 - k, 0) : c0 + k + 1]
+    source = occupancy.logodds if logodds is None else logodds
+    window = source[max(r0 - k, 0) : r0 + k + 1, max(c0 - k, 0) : c0 + k + 1]
     rows, cols = np.nonzero(window > config.occupied)
     pts = np.column_stack(
         [

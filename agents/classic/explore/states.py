@@ -69,7 +69,7 @@ def look(agent: ExploreAgent, ranges: FloatArray, near: FloatArray, odom: Pose, 
             back = np.array([math.cos(start.theta), math.sin(start.theta)])
             agent.wall = (np.array([start.x, start.y]) - 0.7 * back, back)
         agent._go(State.SEARCH if find else State.EXPLORE)
-        if agent.config.relocalise_park_m > 0.0 and not find:
+        if (agent.config.relocalise_park_m > 0.0 or agent.config.park_wall_from_start) and not find:
             agent.start_map = agent.occupancy.logodds.copy()  # the hallway's end, before any drift
         if find:
             agent.finder.stored = agent.occupancy.logodds.copy()
@@ -116,8 +116,9 @@ def park(agent: ExploreAgent, ranges: FloatArray, near: FloatArray, odom: Pose, 
     """To the stand-off point in front of the parking wall; there, face away from it: REVERSE."""
     cfg = agent.config
     if not agent.at_standoff and (agent.state_steps == 1 or agent.planner.replan_due(agent.steps)):
+        logodds = agent.start_map if cfg.park_wall_from_start and agent.start_map is not None else None
         agent.wall, agent.park_foot = parking_spot(
-            agent.occupancy, agent.parking_wall(), agent.odometry.start, agent.motion, cfg
+            agent.occupancy, agent.parking_wall(), agent.odometry.start, agent.motion, cfg, logodds
         )
     point, normal = agent.parking_wall()
     standoff = agent.park_foot + normal * (cfg.park_standoff_m + agent.standoff_extra)
@@ -132,6 +133,7 @@ def park(agent: ExploreAgent, ranges: FloatArray, near: FloatArray, odom: Pose, 
         if agent.odometry.relocalise(
             ranges, agent.angles, agent.start_map, agent.occupancy, agent.spec.lrf.range_max_m
         ):
+            agent.odometry.settle(odom)  # keep the match (the next prediction starts from it)
             agent.planner.path = []  # plan again from where it is
             return 0.0, 0.0, 0.0
     if distance < 0.4:  # (the path ends within 0.2 m of its goal cell)
@@ -149,7 +151,8 @@ def _at_standoff(
     """Servo onto the stand-off point facing it (the way there may lie behind the robot, in the
     LRF's blind sector), then turn in place to face away from the wall, then reverse.
     Hysteresis: the turn may shift the centre a few centimetres."""
-    if distance < 0.04:
+    settle = agent.config.park_settle_s
+    if distance < 0.04 or (settle > 0.0 and distance < 0.12 and agent.still_steps > agent._steps(settle)):
         agent.at_standoff = True
     elif distance > 0.12:
         agent.at_standoff = False
@@ -175,7 +178,11 @@ def _at_standoff(
         agent.turn_blocked = 0
         agent.at_standoff = False
         return 0.0, 0.0, 0.0
-    if distance < 0.06 and (abs(error) < 0.03 or cramped):
+    # Settled (`park_settle_s`): turn in place (the servo's last centimetres, cut by the filter,
+    # stopped the turn too), and reverse from where it stands once facing away.
+    if settle > 0.0 and not (abs(error) < 0.03 or cramped) and not blocked:
+        return 0.0, 0.0, turn
+    if (distance < 0.06 or settle > 0.0) and (abs(error) < 0.03 or cramped):
         agent._go(State.REVERSE)
         agent.stuck = 0
         agent.reversed_m = 0.0
@@ -208,10 +215,13 @@ def reverse(agent: ExploreAgent, ranges: FloatArray, near: FloatArray, odom: Pos
         agent.stuck = agent.stuck + 1 if _touched(agent, ranges, gap) else 0
     # The odometry 8 cm past the wall (refitted to the map, within 2-3 cm): its wheels slip on
     # the spot.
-    if agent.stuck >= 2 or gap < -0.08 or agent.reversed_m > 1.0:
+    if agent.stuck >= 2 or gap < -cfg.park_overrun_m or agent.reversed_m > 1.0:
         # Touching: the centre is `reach` off the wall, whatever the odometry counted.
+        theta = heading if cfg.touch_sets_heading else pose.theta
+        if cfg.touch_sets_heading:  # flush: the centre is half the depth off the wall
+            gap = float((np.array([pose.x, pose.y]) - point) @ normal) - agent.motion.half_depth
         here = np.array([pose.x, pose.y]) - normal * gap
-        agent.odometry.pose = Pose(float(here[0]), float(here[1]), pose.theta)
+        agent.odometry.pose = Pose(float(here[0]), float(here[1]), theta)
         agent.odometry.settle(odom)
         agent._go(State.PARKED)
         return 0.0, 0.0, 0.0
