@@ -73,7 +73,7 @@ def _step_escape(  # noqa: C901 (a compiled kernel, one loop nest: docs/compiled
     flags: np.ndarray,
     sizes: np.ndarray,
     outline: FloatArray,
-    no_movers: tuple[FloatArray, FloatArray, FloatArray, FloatArray],
+    no_movers: tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray],
     bumps: np.ndarray,
     shared: FloatArray,
     ishared: np.ndarray,
@@ -272,7 +272,7 @@ class EscapeBatch:
         self._no_rows = np.zeros(0, dtype=np.int64)
         self.ends = np.zeros((n, 3), dtype=np.int64)  # the last step's (reason code, truncated, success)
         self.motions = np.zeros((n, 20))  # the last step's `_drive` results of robots handed back
-        self._no_movers = (np.zeros((0, 10)), np.zeros((0, 6)), np.zeros((0, 2)), np.zeros((0, 4)))
+        self._no_movers = (np.zeros((0, 10)), np.zeros((0, 6)), np.zeros((0, 2)), np.zeros((0, 4)), np.zeros((0, 2)))
         self.stepped = 0  # robot steps taken in the compiled kernel (the rest went to their envs)
 
     @staticmethod

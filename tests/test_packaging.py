@@ -60,3 +60,22 @@ def test_regular_install_works_from_another_directory(tmp_path: Path) -> None:
     # leave such files behind as namespace-package folders that shadow a later install).
     assert not list(target.rglob("*.nbi")) and not list(target.rglob("*.nbc"))
     assert list((tmp_path / "numba").rglob("*.nbi"))
+
+
+def test_the_kernel_cache_is_keyed_by_every_module_of_the_package() -> None:
+    # numba keys a cached kernel by its own bytecode only: a kernel calling another module's kernel
+    # (the vector batch calls the env's `_drive`) would run stale machine code after that module
+    # changed. pico_gym's cache adds a digest of every module to the key.
+    from pico_gym.jit import njit, package_digest
+
+    @njit
+    def twice(x: float) -> float:
+        return 2.0 * x
+
+    assert twice(1.5) == 3.0
+    cache = twice._cache
+    if not hasattr(cache, "_index_key"):
+        pytest.skip("no writable user cache directory: the kernels compile in memory only")
+    sig = twice.signatures[0]
+    key = cache._index_key(sig, twice.targetctx.codegen())
+    assert key[-1] == package_digest() and len(package_digest()) == 64

@@ -218,18 +218,21 @@ def ship(
     export_actor(model, meta.get("obs_norm")).save(SHIPPED_POLICY)
 
     seeds = range(seed, seed + episodes)
-    # The card's rows: the task's generated worlds with its defaults (whatever the run evaluated
-    # on while training, `env_kwargs`), then the target's variants of them.
-    summary, records = _evaluate(target, seeds, {})
+    # The card's rows: the task's generated worlds as the run evaluated on them while training
+    # (its env kwargs, e.g. the arrival mode the policy acts in), but never a family's worlds: a
+    # run that evaluated on a family still reports the default worlds first, then the target's
+    # variants of them.
+    card_kwargs = {k: v for k, v in (meta.get("env_kwargs") or {}).items() if k != "family"}
+    summary, records = _evaluate(target, seeds, card_kwargs)
     rows = [_row(f"generated {task_info(target.env_id).worlds}", summary)]
     evaluation = {"generated": {"seeds": [seeds[0], seeds[-1]], **summary.to_dict()}}
     if realism:
-        hard, _ = _evaluate(target, seeds, REALISM)
+        hard, _ = _evaluate(target, seeds, {**card_kwargs, **REALISM})
         rows.append(_row("noise x2 + slip", hard))
         evaluation["realism"] = {"seeds": [seeds[0], seeds[-1]], "env_kwargs": REALISM, **hard.to_dict()}
     pooled = []
     for name, kwargs in target.variants:
-        summary_v, records_v = _evaluate(target, seeds, kwargs)
+        summary_v, records_v = _evaluate(target, seeds, {**card_kwargs, **kwargs})
         rows.append(_row(name, summary_v))
         evaluation[name] = {"seeds": [seeds[0], seeds[-1]], "env_kwargs": kwargs, **summary_v.to_dict()}
         pooled += records_v
@@ -247,7 +250,7 @@ def ship(
         picked=picked,
         wall_clock_note=note,
         check={
-            "env_kwargs": {},
+            "env_kwargs": card_kwargs,
             "seeds": [r.seed for r in check],
             "success": [r.success for r in check],
             "bumps": [r.bumps for r in check],
