@@ -399,6 +399,8 @@ def cmd_compare(args: argparse.Namespace) -> int:
     if unknown or not agents:
         print(f"pico-gym compare: unknown agent(s) {unknown}; agents: {', '.join(AGENT_ENTRIES)}", file=sys.stderr)
         return 2
+    if args.robots == 2:
+        return _compare_two_robots(args, agents)
     episodes = Episodes.suite(args.suite, args.episodes, args.seed, _env_options(args), args.env)
     if args.split is not None:
         suite = task_info(args.env).suite(args.suite)
@@ -414,6 +416,37 @@ def cmd_compare(args: argparse.Namespace) -> int:
         + "".join(f", {name}.png" for name in figures)
         + (", trajectories.png" if args.trajectories else "")
     )
+    return 0
+
+
+def _compare_two_robots(args: argparse.Namespace, agents: list[str]) -> int:
+    """`pico-gym compare --robots 2`: every agent driving both robots on the same seeds; the
+    table (both done, per-robot success and time, robot-robot bumps) printed and written to --out
+    with every episode's record."""
+    from tqdm import tqdm
+
+    from pico_gym.agents.two_robots import failures, run_two_robots, summary_table
+
+    if args.from_ or args.split is not None or args.suite != "generated":
+        raise ValueError("--robots 2 takes --agents, --episodes, --seed and env options (--map, --set)")
+    seeds = range(args.seed, args.seed + args.episodes)
+    options = _env_options(args)
+    tables, records = [], {}
+    with tqdm(total=len(agents) * len(seeds), desc="compare x2", unit="ep", file=sys.stderr, disable=args.quiet) as bar:
+        for agent in agents:
+            records[agent] = run_two_robots(args.env, agent, seeds, options, _agent_kwargs(args, agent), bar.update)
+            tables.append(summary_table(agent, records[agent]).splitlines())
+    table = "\n".join(tables[0][:2] + [rows[2] for rows in tables])
+    title = f"{args.env} {options or '(generated worlds)'}, two robots (pico, taco), seeds {seeds[0]}..{seeds[-1]}"
+    lines = [title, "", table, "", *(f"failures of {a} (seed: reasons): {failures(records[a])}" for a in agents)]
+    print("\n".join(lines))
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "results.md").write_text("# pico-gym compare, two robots\n\n" + "\n".join(lines) + "\n")
+    dump = {"env_id": args.env, "env_options": options, "seeds": [seeds[0], seeds[-1]]}
+    dump["records"] = {a: [r.to_dict() for r in rs] for a, rs in records.items()}
+    (out / "results.json").write_text(json.dumps(dump, indent=1, default=str) + "\n")
+    print(f"wrote {out}/results.md, results.json")
     return 0
 
 
@@ -444,6 +477,13 @@ def add_compare(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="an env option (repeatable)")
     p.add_argument("--policy", help=POLICY_HELP)
     p.add_argument("--trajectories", type=int, default=3, help="rooms in trajectories.png (0: no figure)")
+    p.add_argument(
+        "--robots",
+        type=int,
+        choices=(1, 2),
+        default=1,
+        help="2: pico and taco in one world (pico_gym.parallel_env), each agent driving both (the multi extra)",
+    )
     _add_workers(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_compare, map=None, map_path=None)

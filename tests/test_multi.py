@@ -3,6 +3,7 @@ robot-robot contacts, each robot's own task, and the classic agent driving both.
 
 from __future__ import annotations
 
+import json
 import warnings
 from pathlib import Path
 
@@ -120,3 +121,17 @@ def test_bad_two_robot_input_is_refused_by_name() -> None:
     env.reset(seed=0)
     with pytest.raises(ValueError, match="missing \\['taco'\\]"):
         env.step({"pico": np.zeros(3, dtype=np.float32)})
+
+
+def test_compare_reports_both_robots_of_every_agent(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from pico_gym.cli import main
+
+    out = tmp_path / "cmp"
+    args = ["compare", "--robots", "2", "--env", "PicoEscape-v0", "--agents", "wall-follow,random"]
+    assert main([*args, "--episodes", "1", "--seed", "0", "--out", str(out), "--quiet"]) == 0
+    printed = capsys.readouterr().out
+    assert "| agent | episodes | both done | pico success" in printed and "taco success" in printed
+    assert "| wall-follow | 1 |" in printed and "| random | 1 |" in printed
+    saved = json.loads((out / "results.json").read_text())
+    assert set(saved["records"]) == {"wall-follow", "random"} and len(saved["records"]["random"]) == 1
+    assert "robot-robot bump" in (out / "results.md").read_text()
