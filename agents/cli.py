@@ -344,6 +344,16 @@ def _bench_two_robots(args: argparse.Namespace) -> int:
     return 0
 
 
+def _add_robots(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--robots",
+        type=int,
+        choices=(1, 2),
+        default=1,
+        help="2: pico and taco in one world (pico_gym.parallel_env, the multi extra), each agent driving both robots",
+    )
+
+
 def add_run(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("run", help="play one episode with an agent and print the outcome")
     _common(p)
@@ -372,13 +382,7 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
     _add_workers(p)
     p.add_argument("--json", help="write per-episode records and the summary as JSON")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
-    p.add_argument(
-        "--robots",
-        type=int,
-        choices=(1, 2),
-        default=1,
-        help="2: pico and taco in one world (pico_gym.multi; the multi extra), the agent driving each",
-    )
+    _add_robots(p)
     p.set_defaults(func=cmd_bench)
 
 
@@ -477,13 +481,7 @@ def add_compare(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="an env option (repeatable)")
     p.add_argument("--policy", help=POLICY_HELP)
     p.add_argument("--trajectories", type=int, default=3, help="rooms in trajectories.png (0: no figure)")
-    p.add_argument(
-        "--robots",
-        type=int,
-        choices=(1, 2),
-        default=1,
-        help="2: pico and taco in one world (pico_gym.parallel_env), each agent driving both (the multi extra)",
-    )
+    _add_robots(p)
     _add_workers(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_compare, map=None, map_path=None)

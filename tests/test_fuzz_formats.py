@@ -14,8 +14,8 @@ import gymnasium as gym
 import pytest
 
 import pico_gym  # noqa: F401
-from pico_gym.world.map import MapError, load_map
-from pico_gym.world.sim_config import SimConfigError, read_sim_config
+from pico_gym.world.map import Map, MapError, load_map
+from pico_gym.world.sim_config import SimConfig, SimConfigError, read_sim_config
 
 DATA = Path(__file__).parent / "data" / "emc_simulator"
 
@@ -103,30 +103,35 @@ SIM_CASES = [(k, m) for k in SIM for m in MUTATIONS]
 YAML_CASES = [(k, m) for k in YAML for m in MUTATIONS]
 
 
-def _loads_or_refuses(call: Any, error: type[Exception], file_name: str) -> None:
+def _loads_or_refuses(call: Any, error: type[Exception], file_name: str) -> str:
+    """ "refused" (with the format's error naming the file) or "loaded" (a map or config); any
+    other exception fails the test."""
     try:
-        call()
+        value = call()
     except error as e:
         assert file_name in str(e), f"the message does not name the file: {e}"
+        return "refused"
+    assert isinstance(value, (Map, SimConfig)), f"loaded as {type(value).__name__}"
+    return "loaded"
 
 
 @pytest.mark.parametrize(("key", "mutation"), CASES)
 def test_map_json_keys(tmp_path: Path, key: str, mutation: str) -> None:
     path = _write(tmp_path / "fz.json", _mutated(MAP, key, MUTATIONS[mutation]))
-    _loads_or_refuses(lambda: load_map(path), MapError, "fz.json")
+    assert _loads_or_refuses(lambda: load_map(path), MapError, "fz.json") in ("loaded", "refused")
 
 
 @pytest.mark.parametrize(("key", "mutation"), MOVER_CASES)
 def test_mover_record_keys(tmp_path: Path, key: str, mutation: str) -> None:
     data = dict(MAP, movers=[_mutated(MOVER, key, MUTATIONS[mutation])])
     path = _write(tmp_path / "fz.json", data)
-    _loads_or_refuses(lambda: load_map(path), MapError, "fz.json")
+    assert _loads_or_refuses(lambda: load_map(path), MapError, "fz.json") in ("loaded", "refused")
 
 
 @pytest.mark.parametrize(("key", "mutation"), SIM_CASES)
 def test_simulator_config_keys(tmp_path: Path, key: str, mutation: str) -> None:
     path = _write(tmp_path / "sim.json", _mutated(SIM, key, MUTATIONS[mutation]))
-    _loads_or_refuses(lambda: read_sim_config(path), SimConfigError, "sim.json")
+    assert _loads_or_refuses(lambda: read_sim_config(path), SimConfigError, "sim.json") in ("loaded", "refused")
 
 
 @pytest.mark.parametrize(("key", "mutation"), YAML_CASES)
@@ -138,7 +143,7 @@ def test_map_server_yaml_keys(tmp_path: Path, key: str, mutation: str) -> None:
     data = _mutated(YAML, key, value)
     text = yaml.safe_dump({k: (float("nan") if isinstance(v, float) and math.isnan(v) else v) for k, v in data.items()})
     (tmp_path / "fz.yaml").write_text(text)
-    _loads_or_refuses(lambda: load_map(tmp_path / "fz.yaml"), MapError, "fz.yaml")
+    assert _loads_or_refuses(lambda: load_map(tmp_path / "fz.yaml"), MapError, "fz.yaml") in ("loaded", "refused")
 
 
 @pytest.mark.parametrize(
@@ -160,8 +165,9 @@ def test_map_server_yaml_keys(tmp_path: Path, key: str, mutation: str) -> None:
 def test_broken_json_files(tmp_path: Path, text: str) -> None:
     (tmp_path / "fz.json").write_text(text)
     (tmp_path / "sim.json").write_text(text)
-    _loads_or_refuses(lambda: load_map(tmp_path / "fz.json"), MapError, "fz.json")
-    _loads_or_refuses(lambda: read_sim_config(tmp_path / "sim.json"), SimConfigError, "sim.json")
+    # A broken file never loads.
+    assert _loads_or_refuses(lambda: load_map(tmp_path / "fz.json"), MapError, "fz.json") == "refused"
+    assert _loads_or_refuses(lambda: read_sim_config(tmp_path / "sim.json"), SimConfigError, "sim.json") == "refused"
 
 
 @pytest.mark.parametrize(
@@ -178,7 +184,7 @@ def test_broken_json_files(tmp_path: Path, text: str) -> None:
 )
 def test_broken_images(tmp_path: Path, data: bytes) -> None:
     (tmp_path / "fz.pgm").write_bytes(data)
-    _loads_or_refuses(lambda: load_map(tmp_path / "fz.pgm"), MapError, "fz.pgm")
+    assert _loads_or_refuses(lambda: load_map(tmp_path / "fz.pgm"), MapError, "fz.pgm") == "refused"
 
 
 @pytest.mark.parametrize("env_id", ["PicoEscape-v0", "PicoHospital-v0", "PicoExplore-v0"])

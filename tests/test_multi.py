@@ -31,19 +31,28 @@ def _quiet():
 def test_pettingzoo_parallel_api_and_seed_tests(env_id: str, options: dict) -> None:
     from pettingzoo.test import parallel_api_test, parallel_seed_test
 
+    # Both raise on a violation of the PettingZoo API or on seeds not reproducing.
     parallel_api_test(pico_gym.parallel_env(env_id, **options), num_cycles=100)
     parallel_seed_test(lambda: pico_gym.parallel_env(env_id, **options), num_cycles=60)
+    env = pico_gym.parallel_env(env_id, **options)
+    obs, infos = env.reset(seed=0)
+    assert env.agents == ["pico", "taco"] and set(obs) == set(infos) == {"pico", "taco"}
+    assert all(env.observation_space(a).contains(obs[a]) for a in env.agents)
 
 
 def test_pettingzoo_render_test() -> None:
     from pettingzoo.test.render_test import render_test
     from pettingzoo.utils.conversions import parallel_to_aec
 
-    render_test(
+    render_test(  # raises if a render mode misbehaves
         lambda render_mode=None: parallel_to_aec(
             pico_gym.parallel_env("PicoHospital-v0", map="hospital_2019", render_mode=render_mode)
         )
     )
+    env = pico_gym.parallel_env("PicoHospital-v0", map="hospital_2019", render_mode="rgb_array")
+    env.reset(seed=0)
+    frame = env.render()
+    assert isinstance(frame, np.ndarray) and frame.ndim == 3 and frame.shape[2] == 3 and frame.any()
 
 
 def _rollout(seed: int, steps: int = 80) -> list[bytes]:
