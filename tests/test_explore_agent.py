@@ -300,3 +300,37 @@ def test_wall_directions_give_a_rectilinear_rooms_axes_modulo_90_degrees() -> No
         axis = math.atan2(s4, c4) / 4.0  # the walls' direction in the robot frame, modulo 90 deg
         expected = math.radians(20) - heading
         assert abs(math.remainder(4.0 * (axis - expected), 2 * math.pi)) / 4.0 < math.radians(0.1)
+
+
+def _hallway_ranges(pose: Pose, angles: np.ndarray, half_width: float = 0.9) -> np.ndarray:
+    """A scan from `pose` in an endless hallway along x (walls at y = +-half_width)."""
+    a = pose.theta + angles
+    s = np.sin(a)
+    with np.errstate(divide="ignore"):
+        r = np.where(s > 0, (half_width - pose.y) / s, np.where(s < 0, (-half_width - pose.y) / s, np.inf))
+    return np.minimum(r, 10.0)
+
+
+def test_search_align_turns_the_heading_onto_the_stored_map_and_leaves_the_position() -> None:
+    """`search_align`: matched against the map stored at parking, the heading comes back (in a
+    hallway the walls fix it) and the position is left alone (along a hallway it would slide)."""
+    from pico_gym.agents.classic.explore.config import ExploreAgentConfig
+    from pico_gym.agents.classic.explore.occupancy import OccupancyMap
+    from pico_gym.agents.classic.explore.pose import OdometryPose
+
+    cfg = ExploreAgentConfig()
+    occupancy = OccupancyMap(cfg, Pose(0.0, 0.0, 0.0))
+    angles = np.linspace(-2.0, 2.0, 1000)
+    for x in np.arange(-3.0, 3.01, 0.5):  # map the hallway from its middle
+        occupancy.integrate(
+            Pose(float(x), 0.0, 0.0), angles, _hallway_ranges(Pose(float(x), 0.0, 0.0), angles), 10.0, 1
+        )
+    stored = occupancy.logodds.copy()
+    truth = Pose(0.4, 0.1, 0.0)
+    pose = OdometryPose(cfg, truth)
+    pose.pose = Pose(0.4, 0.1, math.radians(2.0))  # the estimate 2 degrees off
+    ranges = _hallway_ranges(truth, angles)
+    for _ in range(5):
+        pose.align(ranges, angles, occupancy, 10.0, stored, heading_only=True)
+    assert (pose.pose.x, pose.pose.y) == (0.4, 0.1)
+    assert abs(pose.pose.theta) < math.radians(0.5)

@@ -432,9 +432,50 @@ def test_near_a_person_no_move_sweeps_the_rear_into_unseen_space() -> None:
     assert not agent._person_near()
 
 
+def test_the_back_guard_backs_only_into_a_strip_a_recent_scan_saw_free() -> None:
+    """`back_guard_mps`: recovering, a backward command is cut to nothing where no scan of the last
+    seconds saw the strip behind the footprint free (the robot has never looked there); sideways
+    passes. Off, the command backs as before."""
+    _, agent = _localised_classic(HospitalAgentConfig(back_guard_mps=0.5))
+    agent._go(State.RECOVER)
+    vx, vy, _ = agent._finish(np.zeros((0, 2)), (-0.2, 0.1, 0.0))
+    assert vx == 0.0 and vy == pytest.approx(0.1)
+    agent._go(State.NAVIGATE)  # navigating, the guard does not apply (the blind cuts do)
+    assert agent._finish(np.zeros((0, 2)), (-0.2, 0.1, 0.0))[0] < 0.0
+    _, plain = _localised_classic(HospitalAgentConfig())
+    plain._go(State.RECOVER)
+    assert plain._finish(np.zeros((0, 2)), (-0.2, 0.1, 0.0))[0] < 0.0
+
+
+def test_a_person_who_walked_out_of_view_behind_the_robot_is_kept_off_as_a_ghost() -> None:
+    """`ghost_people_s`: a track seen walking up behind the robot and lost from the scan stays
+    among the points the safety filter keeps the footprint off, where it would pause."""
+    from pico_gym.agents.classic.tracking import Track
+
+    env, agent = _localised_classic(HospitalAgentConfig(ghost_people_s=30.0))
+    p = agent.pose
+    c, s = math.cos(p.theta), math.sin(p.theta)
+    now = agent.steps * agent.spec.dt_s
+    # 1.2 m straight behind, walking towards the robot at 0.5 m/s, last seen 2 s ago.
+    start = np.array([p.x - 1.2 * c, p.y - 1.2 * s])
+    person = Track(9, start, np.array([0.5 * c, 0.5 * s]), 0.3, now - 1.9, moving=True)
+    obs, *_ = env.step(np.zeros(3, dtype=np.float32))
+    agent.world.tracker.tracks = [person]
+    near = agent._sense(obs)
+    assert len(agent._ghosts.ghosts) == 1
+    ghost = agent._ghosts.ghosts[0]
+    assert abs(math.hypot(ghost.centre[0] - p.x, ghost.centre[1] - p.y) - person.pause_radius_m) < 0.05
+    behind = near[(near[:, 0] < -0.2) & (np.abs(near[:, 1]) < 0.3)]
+    assert len(behind) > 0  # the ghost's points, behind the robot, where no scan reaches
+    vx, _, _ = agent._finish(near, (-0.3, 0.0, 0.0))
+    assert vx > -0.3  # backing towards it is slowed by the safety filter
+
+
 @pytest.mark.parametrize(
     ("kwargs", "match"),
     [
+        ({"ghost_people_s": -1.0}, "ghost_people_s"),
+        ({"back_guard_mps": float("inf")}, "back_guard_mps"),
         ({"escape_people": 1}, "escape_people"),
         ({"blind_memory_s": -1.0}, "blind_memory_s"),
         ({"blind_memory_s": True}, "blind_memory_s"),

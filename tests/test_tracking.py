@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from pico_gym.agents.classic.hospital.ghosts import Ghosts
 from pico_gym.agents.classic.potential_field import MotionConfig, safety_filter
-from pico_gym.agents.classic.tracking import PeopleTracker, TrackerConfig, clusters_in_order
+from pico_gym.agents.classic.tracking import PeopleTracker, Track, TrackerConfig, clusters_in_order
+from pico_gym.types import Pose
 
 
 def _blob(centre: tuple[float, float], n: int = 6, size: float = 0.3) -> np.ndarray:
@@ -123,3 +125,63 @@ def test_clusters_are_the_runs_grown_point_by_point() -> None:
         got = clusters_in_order(pts, keep, 0.2, min_points)
         assert [c.index.tolist() for c in got] == _clusters_one_by_one(pts, keep, 0.2, min_points)
         assert all(np.array_equal(c.points, pts[c.index]) for c in got)
+
+
+def _person(track_id: int, position: tuple[float, float], velocity: tuple[float, float], seen_s: float) -> Track:
+    return Track(track_id, np.array(position), np.array(velocity), 0.3, seen_s, moving=True)
+
+
+def _ghosts() -> Ghosts:
+    return Ghosts(30.0, 0.1, -2.0, 2.0, 0.2, 0.35)  # PICO-like: a 230-degree view, 0.4 x 0.7 m
+
+
+def test_a_person_walking_out_of_view_is_a_ghost_where_it_would_pause_for_the_robot() -> None:
+    ghosts = _ghosts()
+    pose = Pose(0.0, 0.0, 0.0)
+    angles = np.linspace(-2.0, 2.0, 101)
+    ranges = np.full(101, 5.0)  # nothing in view
+    # Last seen 1.2 m to the left, behind, walking towards the robot at 0.5 m/s, 2 s ago.
+    person = _person(7, (-0.3, 1.2), (0.0, -0.5), 10.0)
+    ghosts.update(pose, [person], 12.0, ranges, angles)
+    assert len(ghosts.ghosts) == 1
+    centre = ghosts.ghosts[0].centre
+    # It walks on until within its pause radius (0.2 + 0.3 m) of the robot, and stops there.
+    assert abs(np.hypot(*centre) - person.pause_radius_m) < 1e-9 and centre[1] > 0.0
+    pts = ghosts.points(pose)
+    assert len(pts) > 0 and np.all(np.arctan2(pts[:, 1], pts[:, 0]) > 1.5)  # behind-left, out of view
+    # ... and the safety filter will not back the robot into it.
+    cfg = MotionConfig(half_depth=0.2, half_width=0.35)
+    vx, vy, _ = safety_filter(pts, (-0.3, 0.0, 0.0), cfg)
+    assert vx > -0.3
+
+
+def test_a_ghost_goes_when_a_scan_sees_its_space_free_or_its_person_again() -> None:
+    ghosts = _ghosts()
+    angles = np.linspace(-2.0, 2.0, 101)
+    person = _person(3, (1.0, 0.0), (0.5, 0.0), 0.0)  # walking away ahead, gone from the scan
+    ghosts.update(Pose(0.0, 0.0, 0.0), [person], 0.5, np.full(101, 0.5), angles)
+    assert len(ghosts.ghosts) == 1  # the beams end short of it: not seen free
+    ghosts.update(Pose(0.0, 0.0, 0.0), [person], 0.6, np.full(101, 5.0), angles)
+    assert ghosts.ghosts == []  # every beam through it ends beyond it
+    ghosts.update(Pose(0.0, 0.0, 0.0), [person], 0.7, np.full(101, 0.5), angles)
+    assert len(ghosts.ghosts) == 1
+    person.seen_s = 0.8  # the tracker sees it again: the track holds it, not a ghost
+    ghosts.update(Pose(0.0, 0.0, 0.0), [person], 0.8, np.full(101, 0.5), angles)
+    assert ghosts.ghosts == []
+
+
+def test_a_ghost_far_from_the_robot_or_old_is_forgotten_and_none_lies_in_the_footprint() -> None:
+    ghosts = _ghosts()
+    angles = np.linspace(-2.0, 2.0, 101)
+    blind = np.full(101, 0.3)
+    ghosts.update(Pose(0.0, 0.0, 0.0), [_person(1, (-0.7, 0.0), (0.0, 0.0), 0.0)], 1.0, blind, angles)
+    assert len(ghosts.ghosts) == 1
+    ghosts.update(Pose(3.0, 0.0, 0.0), [], 2.0, blind, angles)  # the robot drove on
+    assert ghosts.ghosts == []
+    ghosts.update(Pose(0.0, 0.0, 0.0), [_person(2, (-0.7, 0.0), (0.0, 0.0), 0.0)], 1.0, blind, angles)
+    ghosts.update(Pose(0.0, 0.0, 0.0), [], 31.5, blind, angles)  # older than its 30 s
+    assert ghosts.ghosts == []
+    # A ghost straddling the footprint: the points inside it are left out (the robot stands there).
+    ghosts.update(Pose(0.0, 0.0, 0.0), [_person(4, (-0.3, 0.0), (0.0, 0.0), 0.0)], 1.0, blind, angles)
+    pts = ghosts.points(Pose(0.0, 0.0, 0.0))
+    assert len(pts) and not np.any((np.abs(pts[:, 0]) < 0.2) & (np.abs(pts[:, 1]) < 0.35))

@@ -142,6 +142,8 @@ class ExploreAgent(Agent):
         delta = pose.predict(odom)
         if self.steps >= 3 and cfg.scan_matching:
             pose.align(ranges, self.angles, self.occupancy, lrf.range_max_m)
+        elif cfg.search_align and self.finder.stored is not None:  # against the map stored at parking
+            pose.align(ranges, self.angles, self.occupancy, lrf.range_max_m, self.finder.stored, heading_only=True)
         if cfg.square_gain > 0.0:
             pose.square(ranges, self.angles, looking=self.state is State.LOOK)
         pose.settle(odom)

@@ -130,10 +130,20 @@ class OdometryPose:
         """Keep the pose's correction of this step's odometry."""
         self.correction = compose(self.pose, inverse(odom))
 
-    def align(self, ranges: FloatArray, angles: FloatArray, occupancy: OccupancyMap, range_max: float) -> None:
+    def align(
+        self,
+        ranges: FloatArray,
+        angles: FloatArray,
+        occupancy: OccupancyMap,
+        range_max: float,
+        logodds: np.ndarray | None = None,
+        heading_only: bool = False,
+    ) -> None:
         """Correlative scan-to-map matching around the prediction (within 3 cm and 0.9 deg:
         odometry drifts far less than that in a step, so a larger jump would be a bad match, e.g.
-        a room seen for the first time)."""
+        a room seen for the first time), against the map (or `logodds` of its grid, e.g. the
+        map stored at parking); with `heading_only`, the heading alone (in a hallway the walls
+        fix the heading but not the position along it, and a free position slides)."""
         cfg = self.config
         points = scan_points(ranges, angles, min(cfg.map_range_m, range_max), 180)
         if len(points) < 40:
@@ -141,7 +151,19 @@ class OdometryPose:
         g = occupancy.grid
         p = self.pose
         x, y, th, score, centre = _best_pose(
-            points, occupancy.logodds, g.x0, g.y0, g.resolution, p.x, p.y, p.theta, 0.03, 0.01, 0.016, 0.002, 3.0
+            points,
+            occupancy.logodds if logodds is None else logodds,
+            g.x0,
+            g.y0,
+            g.resolution,
+            p.x,
+            p.y,
+            p.theta,
+            0.0 if heading_only else 0.03,
+            0.01,
+            0.016,
+            0.002,
+            3.0,
         )
         if score > 1.02 * centre + 1.0:
             self.pose = Pose(float(x), float(y), float(th))

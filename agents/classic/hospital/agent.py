@@ -29,16 +29,20 @@ from pico_gym.agents.base import Agent, RobotSpec
 from pico_gym.agents.classic.hospital.config import HospitalAgentConfig
 from pico_gym.agents.classic.hospital.docking import FrontFit
 from pico_gym.agents.classic.hospital.evidence import EvidenceMap, to_map, to_robot
+from pico_gym.agents.classic.hospital.ghosts import Ghosts
 from pico_gym.agents.classic.hospital.given import GivenMap
 from pico_gym.agents.classic.hospital.pose import MapPose
 from pico_gym.agents.classic.hospital.route import RoutePlanner
 from pico_gym.agents.classic.hospital.states import HANDLERS, Command, State
 from pico_gym.agents.classic.localisation import scan_points
 from pico_gym.agents.classic.potential_field import MotionConfig, keep_in_view, motion_for, safe_turn, safety_filter
-from pico_gym.agents.shield import ScanMemory, SeenFree, blind_translation, blind_turn
+from pico_gym.agents.shield import ScanMemory, SeenFree, behind_seen_free, blind_translation, blind_turn
 from pico_gym.overlay import Overlay
 from pico_gym.types import FloatArray, Pose
 from pico_gym.world.hospital import Cabinet
+
+# How long the scans that vouch for the strip behind the robot are kept (`back_guard_mps`) [s].
+_BACK_MEMORY_S = 4.0
 
 
 class HospitalAgent(Agent):
@@ -110,6 +114,26 @@ class HospitalAgent(Agent):
             if cfg.people_cuts_m > 0.0
             else None
         )  # fmt: skip
+        self._back_free = (
+            SeenFree(
+                _BACK_MEMORY_S, self.spec.dt_s, lrf.angle_min_rad, lrf.angle_max_rad, lrf.range_min_m,
+                lrf.range_max_m, self.motion.half_depth, self.motion.half_width, walk_in_mps=cfg.back_guard_mps,
+            )
+            if cfg.back_guard_mps > 0.0
+            else None
+        )  # fmt: skip
+        self._ghosts = (
+            Ghosts(
+                cfg.ghost_people_s,
+                self.spec.dt_s,
+                lrf.angle_min_rad,
+                lrf.angle_max_rad,
+                self.motion.half_depth,
+                self.motion.half_width,
+            )
+            if cfg.ghost_people_s > 0.0 and cfg.track_people
+            else None
+        )
         self._static_until = 0  # no YIELD before this step (a blocker was seen not to move)
         self._anchor: tuple[FloatArray, int] | None = None  # (spot, step) of `states.going_nowhere`
         self._blocked_spots: list[FloatArray] = []  # escape spots the robot could not move towards
@@ -180,10 +204,15 @@ class HospitalAgent(Agent):
             # The blind sector behind the robot: the map's walls and what the evidence holds there.
             behind = self.world.remembered(self.pose, self._memory, self._odom)
             near = np.vstack([near, behind[np.abs(np.arctan2(behind[:, 1], behind[:, 0])) > lrf.angle_max_rad - 0.05]])
+            if self._ghosts is not None:  # people who walked out of the view near the robot
+                self._ghosts.update(self.pose, self.world.walking(), self.steps * self.spec.dt_s, ranges, self.angles)
+                near = np.vstack([near, self._ghosts.points(self.pose)])
             near = self.world.wary(self.pose, near, self.motion, self.route.squeeze)
         self._memory.add(self._scan_robot, odom)  # (after `near`: this step's scan is in it already)
         if self._people_free is not None:
             self._people_free.add(ranges, odom)
+        if self._back_free is not None:
+            self._back_free.add(ranges, odom)
         return near
 
     def _track(self, odom: Pose, points: FloatArray) -> None:
@@ -226,6 +255,10 @@ class HospitalAgent(Agent):
             free = self._people_free
             command = self._blind_cuts(command, lambda pts: free.free(pts, self._odom, aged=False))
         vx, vy, w = command
+        if vx < 0.0 and self._back_free is not None and self.state in (State.RECOVER, State.YIELD):
+            back_free = self._back_free
+            if not behind_seen_free(self.motion, lambda pts: back_free.free(pts, self._odom)):
+                vx = 0.0  # no backing into the strip behind that no recent scan saw free
         v = keep_in_view(np.array([vx, vy]), self.motion)
         if self.config.turn_keep_m > 0.0:
             w = safe_turn(near, float(w), self.motion, keep_m=self.config.turn_keep_m)

@@ -88,6 +88,14 @@ class HospitalAgentConfig:
         people_cuts_m: while a person tracked walking is this near, no translation or turn may
             sweep the footprint's rear into space no recent scan saw free [m] (0: off; needs
             `blind_memory_s` > 0). Off: measured no gain on this agent.
+        ghost_people_s: a person tracked walking who went out of the LRF's view near the robot
+            is kept, where it would have paused for the robot, among the points the safety filter
+            keeps the footprint off, until a scan sees that space free or for this long [s]
+            (0: off; `agents/classic/hospital/ghosts.py`).
+        back_guard_mps: recovering and yielding, the robot backs only where a scan of the last
+            4 s saw the strip just behind its footprint free, what it saw taken back at this
+            speed (a walking person's) [m/s] (0: off): a person who walked up behind a robot
+            is in no scan, and recovering backs away from what is in front.
         tracker: the people tracker's settings.
     """
 
@@ -138,12 +146,19 @@ class HospitalAgentConfig:
     escape_people: bool = False
     blind_memory_s: float = 0.0
     people_cuts_m: float = 0.0
+    ghost_people_s: float = 0.0
+    back_guard_mps: float = 0.0
     tracker: TrackerConfig = dataclasses.field(default_factory=TrackerConfig)
 
     def __post_init__(self) -> None:
         if not isinstance(self.escape_people, bool):
             raise ValueError(f"HospitalAgentConfig.escape_people must be true or false, got {self.escape_people!r}")
-        for name, top in (("blind_memory_s", 60.0), ("people_cuts_m", 10.0)):
+        for name, top in (
+            ("blind_memory_s", 60.0),
+            ("people_cuts_m", 10.0),
+            ("ghost_people_s", 600.0),
+            ("back_guard_mps", 5.0),
+        ):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0.0 <= value <= top:
                 raise ValueError(f"HospitalAgentConfig.{name} must be a number in [0, {top:g}], got {value!r}")
