@@ -42,7 +42,8 @@ class ExploreAgentConfig:
             corrections random-walk the heading faster than the course's odometry drifts.
         search_align: after parking, correct the odometry's heading by the same matching against
             the map stored at parking (a finished map that no longer moves with the pose; the
-            position is left alone: along a hallway it slides).
+            position is left alone: along a hallway it slides). On: measured on the families'
+            dev splits, found-of-parked 92-97 % -> 97-100 %.
         safety_floor_m: the safety filter lets nothing closer to the footprint than this plus
             twice the LRF's noise, and tries a command without its turn before scaling it down
             (0: the plain filter).
@@ -111,7 +112,7 @@ class ExploreAgentConfig:
     room_middle_m: float = 1.02
     stop_range_m: float = 0.3
     scan_matching: bool = False
-    search_align: bool = False
+    search_align: bool = True
     square_gain: float = 0.0
     square_min: float = 0.6
     square_window_deg: float = 5.0
