@@ -91,11 +91,13 @@ class HospitalAgentConfig:
         ghost_people_s: a person tracked walking who went out of the LRF's view near the robot
             is kept, where it would have paused for the robot, among the points the safety filter
             keeps the footprint off, until a scan sees that space free or for this long [s]
-            (0: off; `agents/classic/hospital/ghosts.py`).
+            (0: off; `agents/classic/hospital/ghosts.py`). Off: measured on the narrow family,
+            fewer of this agent's bumps, within the noise, and more of the hybrid's.
         back_guard_mps: recovering and yielding, the robot backs only where a scan of the last
             4 s saw the strip just behind its footprint free, what it saw taken back at this
             speed (a walking person's) [m/s] (0: off): a person who walked up behind a robot
-            is in no scan, and recovering backs away from what is in front.
+            is in no scan, and recovering backs away from what is in front. Off: measured, it
+            boxes the robot in (docs/agents/hybrid.md).
         tracker: the people tracker's settings.
     """
 
