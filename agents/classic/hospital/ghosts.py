@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pico_gym.agents.classic.hospital.evidence import to_robot
 from pico_gym.agents.classic.tracking import Track
 from pico_gym.types import FloatArray, Pose
 
@@ -116,13 +117,13 @@ class Ghosts:
         inside the footprint."""
         if not self.ghosts:
             return np.zeros((0, 2))
-        pts = _to_robot(pose, np.vstack([g.points()[~g.free] for g in self.ghosts]))
+        pts = to_robot(pose, np.vstack([g.points()[~g.free] for g in self.ghosts]))
         inside = (np.abs(pts[:, 0]) < self._half[0]) & (np.abs(pts[:, 1]) < self._half[1])
         return pts[~inside]
 
     def _seen_free(self, pose: Pose, pts_map: FloatArray, ranges: FloatArray, angles: FloatArray) -> np.ndarray:
         """Which map-frame points this scan saw free (a beam through each ended beyond it)."""
-        pts = _to_robot(pose, pts_map)
+        pts = to_robot(pose, pts_map)
         dist = np.hypot(pts[:, 0], pts[:, 1])
         bearing = np.arctan2(pts[:, 1], pts[:, 0])
         lo, hi = self._view
@@ -154,9 +155,3 @@ def _where_it_stops(track: Track, unseen_s: float, here: FloatArray, pause_m: fl
         if 0.0 <= first < unseen_s:
             s = first
     return start + v * s
-
-
-def _to_robot(pose: Pose, p: FloatArray) -> FloatArray:
-    c, s = math.cos(pose.theta), math.sin(pose.theta)
-    d = p - np.array([pose.x, pose.y])
-    return np.column_stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]])
