@@ -4,8 +4,9 @@ The course simulator's people pause while the robot is within their pause radius
 half-diagonal plus 0.3 m, `tracking.PAUSE_MARGIN_M`). One who walks past the robot into the
 LRF's blind sector (about 130 degrees behind it) stops there, 0.3-0.5 m behind, and is in no
 scan: the tracker drops it, the scan memory forgets it, and the robot, turning in place or
-backing away while it recovers, swings its rear into it. Every mover bump traced on the narrow
-and crowded hospital families was that (docs/agents/hybrid.md).
+backing away while it recovers, swings its rear into it: the mover bumps first traced on the
+narrow and crowded hospital families (docs/agents/hybrid.md). A ghost covers those the tracker
+saw walking; one never seen (walking up from behind a standing robot) it cannot.
 
 A ghost is where such a person would be: the track's last estimate walked on along its velocity
 until it comes within its pause radius of the robot (where the simulator's person would stop).
@@ -87,7 +88,7 @@ class Ghosts:
         for t in walking:
             if t.seen_s >= now_s or t.id in known:
                 continue
-            centre = _where_it_stops(t, now_s - t.seen_s, here)
+            centre = _where_it_stops(t.position, t.velocity, now_s - t.seen_s, here, t.pause_radius_m)
             if math.hypot(*(centre - here)) < REACH_M:
                 stopped = math.hypot(*(centre - here)) <= t.pause_radius_m + 1e-9
                 velocity = np.zeros(2) if stopped else t.velocity.copy()
@@ -100,9 +101,7 @@ class Ghosts:
             ):
                 continue
             if np.any(g.velocity):  # walking on, until it would pause for the robot
-                g.centre = _where_it_stops(
-                    Track(g.track_id, g.centre, g.velocity, 0.0, 0.0), self.dt_s, here, g.pause_radius_m
-                )
+                g.centre = _where_it_stops(g.centre, g.velocity, self.dt_s, here, g.pause_radius_m)
                 if math.hypot(*(g.centre - here)) <= g.pause_radius_m + 1e-9:
                     g.velocity = np.zeros(2)
             if math.hypot(*(g.centre - here)) > REACH_M + g.radius_m:
@@ -138,16 +137,17 @@ _RING_ANGLES = np.arange(RING_POINTS) * 2.0 * math.pi / RING_POINTS
 _UNIT_RING = np.column_stack([np.cos(_RING_ANGLES), np.sin(_RING_ANGLES)])
 
 
-def _where_it_stops(track: Track, unseen_s: float, here: FloatArray, pause_m: float | None = None) -> FloatArray:
-    """The track's estimate walked on along its velocity for `unseen_s`, stopped where it first
-    comes within its pause radius (or `pause_m`) of `here` (the robot)."""
-    start, v = track.position, track.velocity
-    pause = track.pause_radius_m if pause_m is None else pause_m
-    if math.hypot(*(start - here)) <= pause or not np.any(v):
+def _where_it_stops(
+    start: FloatArray, velocity: FloatArray, unseen_s: float, here: FloatArray, pause_m: float
+) -> FloatArray:
+    """A person last seen at `start` walking at `velocity`, walked on for `unseen_s` but stopped
+    where it first comes within `pause_m` of `here` (the robot)."""
+    v = velocity
+    if math.hypot(*(start - here)) <= pause_m or not np.any(v):
         return start.copy()
-    # |start + v s - here| = pause: the first root in [0, unseen_s], if any.
+    # |start + v s - here| = pause_m: the first root in [0, unseen_s], if any.
     d = start - here
-    a, b, c = float(v @ v), 2.0 * float(d @ v), float(d @ d) - pause * pause
+    a, b, c = float(v @ v), 2.0 * float(d @ v), float(d @ d) - pause_m * pause_m
     disc = b * b - 4.0 * a * c
     s = unseen_s
     if disc >= 0.0:
