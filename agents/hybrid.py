@@ -31,7 +31,7 @@ import numpy as np
 from pico_gym.agents.base import RobotSpec
 from pico_gym.agents.classic.hospital import HospitalAgent, HospitalAgentConfig, State
 from pico_gym.agents.classic.potential_field import safety_filter
-from pico_gym.agents.shield import ScanMemory, SeenFree, behind_seen_free, blind_translation
+from pico_gym.agents.shield import ScanMemory, behind_seen_free, blind_translation
 from pico_gym.overlay import Overlay
 from pico_gym.types import FloatArray
 from pico_gym.wrappers import LearningConfig, LearningEncoder, encode_goal, rescale_action, unit_action
@@ -215,18 +215,7 @@ class HybridAgent(HospitalAgent):
         # below replace the classic part's `people_cuts_m`).
         self._memory = ScanMemory(self.hybrid.blind_memory_s, self.spec.dt_s)
         self._people_free = None
-        lrf = self.spec.lrf
-        self._seen_free = SeenFree(
-            self.hybrid.blind_memory_s,
-            self.spec.dt_s,
-            lrf.angle_min_rad,
-            lrf.angle_max_rad,
-            lrf.range_min_m,
-            lrf.range_max_m,
-            self.motion.half_depth,
-            self.motion.half_width,
-            walk_in_mps=float(self.hybrid.walk_in_mps),
-        )
+        self._seen_free = self.seen_free(self.hybrid.blind_memory_s, walk_in_mps=float(self.hybrid.walk_in_mps))
         self._back_left = self.hybrid.back_budget_m  # backing left into unvouched space [m]
         self._leg = 0  # the cabinet the recoveries below were counted for
         self._leg_start = 0  # the step its leg began at

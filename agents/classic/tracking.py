@@ -219,11 +219,7 @@ class PeopleTracker:
             self.tracks.append(t)
             joined.append((c, t))
         kept = [t for t in self.tracks if time_s - t.seen_s <= cfg.lost_s]
-        self.dropped += [
-            t
-            for t in self.tracks
-            if (t.moving or float(np.hypot(*t.velocity)) >= cfg.walking_mps) and time_s - t.seen_s > cfg.lost_s
-        ]
+        self.dropped += [t for t in self.tracks if self._walks(t) and time_s - t.seen_s > cfg.lost_s]
         self.dropped = [t for t in self.dropped if time_s - t.seen_s <= cfg.remember_s]
         self.tracks = kept
         return joined
@@ -272,6 +268,15 @@ class PeopleTracker:
             track.moving = bool(float(np.hypot(*(window[-1] - window[0]))) >= needed)
             if track.moving:
                 track.moving_since_s = time_s
+
+    def _walks(self, track: Track) -> bool:
+        """Seen moving, or estimated at least `walking_mps` fast."""
+        return track.moving or float(np.hypot(*track.velocity)) >= self.config.walking_mps
+
+    def walking(self) -> list[Track]:
+        """The tracks that walk (`_walks`), whether the last scan saw them or not, and the walking
+        tracks dropped but still remembered."""
+        return [t for t in self.tracks if self._walks(t)] + list(self.dropped)
 
     def moving(self) -> list[Track]:
         """The tracks that have been seen moving."""

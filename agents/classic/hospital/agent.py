@@ -106,22 +106,10 @@ class HospitalAgent(Agent):
         self._last_points = np.zeros((0, 2))
         self._memory = ScanMemory(cfg.blind_memory_s, self.spec.dt_s)
         lrf = self.spec.lrf
-        self._people_free = (
-            SeenFree(
-                cfg.blind_memory_s, self.spec.dt_s, lrf.angle_min_rad, lrf.angle_max_rad, lrf.range_min_m,
-                lrf.range_max_m, self.motion.half_depth, self.motion.half_width,
-            )
-            if cfg.people_cuts_m > 0.0
-            else None
-        )  # fmt: skip
+        self._people_free = self.seen_free(cfg.blind_memory_s) if cfg.people_cuts_m > 0.0 else None
         self._back_free = (
-            SeenFree(
-                _BACK_MEMORY_S, self.spec.dt_s, lrf.angle_min_rad, lrf.angle_max_rad, lrf.range_min_m,
-                lrf.range_max_m, self.motion.half_depth, self.motion.half_width, walk_in_mps=cfg.back_guard_mps,
-            )
-            if cfg.back_guard_mps > 0.0
-            else None
-        )  # fmt: skip
+            self.seen_free(_BACK_MEMORY_S, walk_in_mps=cfg.back_guard_mps) if cfg.back_guard_mps > 0.0 else None
+        )
         self._ghosts = (
             Ghosts(
                 cfg.ghost_people_s,
@@ -139,6 +127,14 @@ class HospitalAgent(Agent):
         self._blocked_spots: list[FloatArray] = []  # escape spots the robot could not move towards
         self._yield_seen = np.zeros((0, 2))
         self._moved_step = -(10**9)
+
+    def seen_free(self, seconds: float, walk_in_mps: float = 0.0) -> SeenFree:
+        """A memory of where this robot's last `seconds` of scans saw free space (`SeenFree`)."""
+        lrf = self.spec.lrf
+        return SeenFree(
+            seconds, self.spec.dt_s, lrf.angle_min_rad, lrf.angle_max_rad, lrf.range_min_m, lrf.range_max_m,
+            self.motion.half_depth, self.motion.half_width, walk_in_mps=walk_in_mps,
+        )  # fmt: skip
 
     @property
     def pose(self) -> Pose:

@@ -112,13 +112,9 @@ class EvidenceMap:
         return self.tracker.moving() if self.config.track_people else []
 
     def walking(self) -> list[Track]:
-        """The tracks seen walking, whether this scan saw them or not, and the walking tracks
-        dropped but still remembered (none when tracking is off)."""
-        if not self.config.track_people:
-            return []
-        t = self.tracker
-        fast = t.config.walking_mps
-        return [k for k in t.tracks if k.moving or float(np.hypot(*k.velocity)) >= fast] + list(t.dropped)
+        """The tracker's walking tracks, seen this scan or not, and those dropped but remembered
+        (none when tracking is off)."""
+        return self.tracker.walking() if self.config.track_people else []
 
     def unexplained(self, x: FloatArray, y: FloatArray) -> np.ndarray:
         """Which map-frame points the map does not explain (farther than `unexplained_m` from its walls)."""

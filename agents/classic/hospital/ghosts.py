@@ -25,12 +25,11 @@ import numpy as np
 
 from pico_gym.agents.classic.hospital.evidence import to_robot
 from pico_gym.agents.classic.tracking import Track
+from pico_gym.agents.shield import SEEN_FREE_SLACK_M
 from pico_gym.types import FloatArray, Pose
 
 # A ghost within this of the robot is kept; farther, it cannot meet the footprint soon [m].
 REACH_M = 1.5
-# A ring point counts as seen free when its beam ended at least this far beyond it [m].
-SEEN_FREE_SLACK_M = 0.05
 # Ring points per ghost.
 RING_POINTS = 12
 
@@ -121,7 +120,8 @@ class Ghosts:
         return pts[~inside]
 
     def _seen_free(self, pose: Pose, pts_map: FloatArray, ranges: FloatArray, angles: FloatArray) -> np.ndarray:
-        """Which map-frame points this scan saw free (a beam through each ended beyond it)."""
+        """Which map-frame points this scan saw free (a beam through each ended at least
+        `SEEN_FREE_SLACK_M` beyond it, as `SeenFree` judges)."""
         pts = to_robot(pose, pts_map)
         dist = np.hypot(pts[:, 0], pts[:, 1])
         bearing = np.arctan2(pts[:, 1], pts[:, 0])
