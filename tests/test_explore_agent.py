@@ -334,3 +334,37 @@ def test_search_align_turns_the_heading_onto_the_stored_map_and_leaves_the_posit
         pose.align(ranges, angles, occupancy, 10.0, stored, heading_only=True)
     assert (pose.pose.x, pose.pose.y) == (0.4, 0.1)
     assert abs(pose.pose.theta) < math.radians(0.5)
+
+
+def test_dock_puts_the_pose_at_the_distance_the_scan_sees_the_parking_wall() -> None:
+    """`parking.dock`: facing the parking wall (x = 0, the end of a 1.8 m hallway), the scan gives
+    the distance to it (and, if asked, the heading against it) whatever the drifted pose says;
+    the position along the wall is left alone. Kept, the heading turns the wall seen into the
+    map (a wall refitted on a drifted map tilted). A wall seen that is not the parking wall as
+    the pose has it (a side wall, or one farther off than `max_shift_m`) leaves the pose alone."""
+    from pico_gym.agents.classic.explore.parking import dock
+
+    end = np.array([[0, -0.9, 0, 0.9], [0, 0.9, 6, 0.9], [6, -0.9, 0, -0.9]], float)
+    angles = np.linspace(-2.0, 2.0, 1000)
+    wall = (np.array([0.0, 0.0]), np.array([1.0, 0.0]))
+    truth = Pose(0.62, 0.2, math.pi + 0.05)
+    ranges = lrf_ranges(truth, end, angles)
+    drifted = Pose(0.9, 0.05, math.pi - 0.08)  # 0.28 m too far off the wall, 7.4 deg off
+    seen = dock(ranges, angles, drifted, wall, max_shift_m=0.6)
+    assert seen is not None
+    docked, normal = seen
+    assert abs(docked.x - truth.x) < 0.01 and docked.y == drifted.y  # along the wall: not measured
+    assert abs(math.remainder(docked.theta - truth.theta, 2 * math.pi)) < math.radians(0.5)
+    assert normal @ wall[1] == 1.0
+    # The distance only (the default): the heading kept, the wall seen turned by it.
+    seen = dock(ranges, angles, drifted, wall, max_shift_m=0.6, heading=False)
+    assert seen is not None
+    docked, normal = seen
+    assert docked.theta == drifted.theta
+    tilt = math.atan2(normal[1], normal[0])  # the wall as this heading sees it: 7.4 deg tilted
+    assert abs(tilt - (drifted.theta - truth.theta)) < math.radians(0.5)
+    wall_distance = float((np.array([docked.x, docked.y]) - wall[0]) @ normal)
+    assert abs(wall_distance - truth.x) < 0.01
+    assert dock(ranges, angles, Pose(1.5, 0.05, math.pi), wall, max_shift_m=0.6) is None  # 0.88 m off
+    side = lrf_ranges(Pose(2.0, 0.2, math.pi / 2), end, angles)  # facing a side wall
+    assert dock(side, angles, Pose(2.0, 0.2, math.pi / 2), wall, max_shift_m=0.6) is None

@@ -92,6 +92,10 @@ class ExploreAgent(Agent):
         self.unstick_until = 0
         self.unsticks = 0
         self._lrf_points = 0
+        # The blind sector's memory starts here: the pose was moved (`park_dock_m`), and the hits
+        # before stand where the drifted pose put them.
+        self.blind_from = 0
+        self.wall_seen: FloatArray | None = None  # the parking wall's normal as seen, docking
 
     @property
     def pose(self) -> Pose:
@@ -175,7 +179,10 @@ class ExploreAgent(Agent):
     def _blind_since(self) -> int | None:
         """The first step whose hits the blind sector holds (`blind_memory_s`; None: every hit)."""
         memory = self.config.blind_memory_s
-        return self.steps - self._steps(memory) if memory > 0.0 else None
+        since = self.steps - self._steps(memory) if memory > 0.0 else None
+        if self.blind_from:
+            since = self.blind_from if since is None else max(since, self.blind_from)
+        return since
 
     def _unstick(self, ranges: FloatArray, near: FloatArray) -> Command:
         """Boxed in (the filters stop every way the plan wants): towards the most open direction

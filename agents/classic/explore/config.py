@@ -74,6 +74,14 @@ class ExploreAgentConfig:
         park_overrun_m: the reverse ends as touching once the odometry counts this far past the
             wall as mapped (wheels slipping against it), without waiting for the scan's evidence
             of the touch; a drifted pose reached it short of the wall [m].
+        park_dock_m: on the way to park, within this of the stand-off point, and while facing
+            the parking wall, put the pose at the distance from it the scan sees, and take the
+            wall's direction as seen (`parking.dock`): a pose drifted 0.2-0.5 m over minutes of
+            exploring stood the robot where it could not turn, or ended the reverse short of the
+            wall, and the wall refitted on the drifted map tilted by up to 20 deg [m] (0: off).
+            `park_dock_heading`: put the heading square to the wall as refitted instead of
+            keeping it (off: the refitted wall tilts, and the search then runs on a heading off
+            the map). Measured in docs/agents/classic-explore.md.
         park_settle_s: near the stand-off point (within 0.12 m) but held still this long (the
             safety filter cuts the last few centimetres: a drifted pose put the point close to
             a side wall), take where it stands as the stand-off point and turn there; and turn in
@@ -126,3 +134,5 @@ class ExploreAgentConfig:
     touch_sets_heading: bool = False
     park_overrun_m: float = 0.08
     park_settle_s: float = 0.0
+    park_dock_m: float = 1.5
+    park_dock_heading: bool = False

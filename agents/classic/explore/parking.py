@@ -1,6 +1,7 @@
 """Parking for the classic explore agent: the parking wall fitted from the scan at the start
 (the robot turns round and faces it), refitted to the map before parking, and the place along it
-where the way back from the stand-off point is clear.
+where the way back from the stand-off point is clear; and docking: facing the wall on the way
+back, the distance to it and its direction as the scan sees them (`dock`).
 """
 
 from __future__ import annotations
@@ -14,14 +15,15 @@ from pico_gym.agents.classic.explore.occupancy import OccupancyMap
 from pico_gym.agents.classic.localisation import scan_points
 from pico_gym.agents.classic.potential_field import MotionConfig
 from pico_gym.types import FloatArray, Pose
+from pico_gym.world.geometry import wrap_angle
 
 # A wall: a point on it and its unit normal into the building.
 Wall = tuple[FloatArray, FloatArray]
 
 
-def fit_wall(ranges: FloatArray, angles: FloatArray, pose: Pose, start: Pose) -> Wall | None:
-    """The parking wall: a line through the nearest points straight ahead (the robot faces back),
-    its normal towards the start; None when too few points are seen there."""
+def _wall_ahead(ranges: FloatArray, angles: FloatArray) -> FloatArray | None:
+    """The robot-frame points of the wall straight ahead (within 2 m and 26 deg of the heading,
+    near the depth straight ahead); None when too few are seen."""
     pts = scan_points(ranges, angles, 2.0, len(ranges))
     keep = np.abs(np.arctan2(pts[:, 1], pts[:, 0])) < 0.45
     pts = pts[keep]
@@ -35,17 +37,75 @@ def fit_wall(ranges: FloatArray, angles: FloatArray, pose: Pose, start: Pose) ->
         else float(pts[:, 0].max())
     )
     pts = pts[np.abs(pts[:, 0] - ahead) < 0.15 + 0.3 * np.abs(pts[:, 1])]
-    if len(pts) < 15:
+    return pts if len(pts) >= 15 else None
+
+
+def _line(pts: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """The least-squares line through points: its centre and a unit normal."""
+    centre = pts.mean(axis=0)
+    _, _, vt = np.linalg.svd(pts - centre)
+    return centre, np.array([-vt[0][1], vt[0][0]])
+
+
+def fit_wall(ranges: FloatArray, angles: FloatArray, pose: Pose, start: Pose) -> Wall | None:
+    """The parking wall: a line through the nearest points straight ahead (the robot faces back),
+    its normal towards the start; None when too few points are seen there."""
+    pts = _wall_ahead(ranges, angles)
+    if pts is None:
         return None
     c, s = math.cos(pose.theta), math.sin(pose.theta)
     world = np.column_stack([pose.x + c * pts[:, 0] - s * pts[:, 1], pose.y + s * pts[:, 0] + c * pts[:, 1]])
-    centre = world.mean(axis=0)
-    _, _, vt = np.linalg.svd(world - centre)
-    direction = vt[0]
-    normal = np.array([-direction[1], direction[0]])
+    centre, normal = _line(world)
     if (np.array([start.x, start.y]) - centre) @ normal < 0:
         normal = -normal
     return centre, normal
+
+
+def dock(
+    ranges: FloatArray, angles: FloatArray, pose: Pose, wall: Wall, max_shift_m: float, heading: bool = True
+) -> tuple[Pose, FloatArray] | None:
+    """Facing the parking wall, the pose put at the distance from it the scan sees, whatever the
+    odometry drifted over minutes of exploring, and the wall's normal as seen. `heading`: the
+    heading put square to the wall as `wall` has it (else the heading is kept, and the normal
+    seen is the scan's wall turned by it: the wall refitted on a drifted map tilted by up to
+    20 deg, the reverse went in at that angle). The position along the wall is left alone. None
+    when no straight wall is seen ahead, or the one seen is not the parking wall as the pose has
+    it (more than 20 deg or `max_shift_m` off: a jamb, a side wall)."""
+    pts = scan_points(ranges, angles, 2.0, len(ranges))
+    pts = pts[np.abs(np.arctan2(pts[:, 1], pts[:, 0])) < 0.45]
+    seed = pts[np.abs(pts[:, 1]) < 0.1]  # the patch straight ahead, then what lies on its line
+    if len(seed) < 10:
+        return None
+    centre, n_robot = _line(seed)
+    for _ in range(3):
+        on = pts[np.abs((pts - centre) @ n_robot) < 0.02]
+        if len(on) < 40:
+            return None
+        centre, n_robot = _line(on)
+    extent = on @ np.array([-n_robot[1], n_robot[0]])
+    if extent.max() - extent.min() < 0.3 or float(np.sqrt(np.mean(((on - centre) @ n_robot) ** 2))) > 0.01:
+        return None
+    if centre @ n_robot > 0:  # the normal towards the robot (the building's side)
+        n_robot = -n_robot
+    if abs(math.atan2(n_robot[1], -n_robot[0])) > math.radians(30.0):  # not facing it
+        return None
+    distance = float(-(centre @ n_robot))
+    point, normal = wall
+    c, s = math.cos(pose.theta), math.sin(pose.theta)
+    seen = np.array([c * n_robot[0] - s * n_robot[1], s * n_robot[0] + c * n_robot[1]])
+    if float(seen @ normal) < math.cos(math.radians(20.0)):
+        return None
+    if heading:
+        theta = wrap_angle(math.atan2(normal[1], normal[0]) - math.atan2(n_robot[1], n_robot[0]))
+        seen = normal
+    else:  # the distance only (the heading stays with the map the pose drifted with)
+        theta = pose.theta
+    here = np.array([pose.x, pose.y])
+    shift = distance - float((here - point) @ seen)
+    if abs(shift) > max_shift_m:
+        return None
+    x, y = here + seen * shift
+    return Pose(float(x), float(y), theta), seen
 
 
 def parking_spot(

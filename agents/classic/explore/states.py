@@ -2,7 +2,8 @@
 
 LOOK      turn a full circle in place; facing back, fit the parking wall behind the start
 EXPLORE   frontier exploration until no frontier is left (or the budget is spent)
-PARK      drive to the stand-off point in front of the parking wall, turn to point away
+PARK      drive to the stand-off point in front of the parking wall (the last 1.5 m with the pose
+          put at the distance the scan sees the wall), turn to point away
 REVERSE   back up with the heading held until odometry keeps counting while the scan stops
           moving (the wall is touched)
 PARKED    stand still, then off the wall
@@ -23,7 +24,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from pico_gym.agents.classic.explore.motion import Command, filtered
-from pico_gym.agents.classic.explore.parking import fit_wall, parking_spot
+from pico_gym.agents.classic.explore.parking import dock, fit_wall, parking_spot
 from pico_gym.agents.classic.explore.regions import component_sizes
 from pico_gym.agents.classic.potential_field import attract_and_repel, heading_rate, safe_turn
 from pico_gym.types import FloatArray, Pose
@@ -120,10 +121,23 @@ def park(agent: ExploreAgent, ranges: FloatArray, near: FloatArray, odom: Pose, 
         agent.wall, agent.park_foot = parking_spot(
             agent.occupancy, agent.parking_wall(), agent.odometry.start, agent.motion, cfg, logodds
         )
+        if agent.wall_seen is not None:  # the wall as the scan saw it, facing it (`park_dock_m`)
+            agent.wall = (agent.wall[0], agent.wall_seen)
     point, normal = agent.parking_wall()
     standoff = agent.park_foot + normal * (cfg.park_standoff_m + agent.standoff_extra)
     here = np.array([agent.pose.x, agent.pose.y])
     distance = float(np.linalg.norm(standoff - here))
+    if distance < cfg.park_dock_m and not agent.at_standoff:
+        seen = dock(ranges, agent.angles, agent.pose, (point, normal), 0.6, cfg.park_dock_heading)
+        if seen is not None:
+            docked, agent.wall_seen = seen
+            moved = math.hypot(docked.x - agent.pose.x, docked.y - agent.pose.y)
+            if moved > 0.03 or abs(wrap_angle(docked.theta - agent.pose.theta)) > 0.02:
+                agent.blind_from = agent.steps + 1  # this step's scan went into the map before the move
+            agent.odometry.pose = docked
+            agent.odometry.settle(odom)
+            here = np.array([docked.x, docked.y])
+            distance = float(np.linalg.norm(standoff - here))
     if (
         agent.start_map is not None
         and distance < cfg.relocalise_park_m
@@ -188,7 +202,9 @@ def _at_standoff(
         agent.reversed_m = 0.0
         agent.reverse_log = []
         return 0.0, 0.0, 0.0
-    return float(v[0]), float(v[1]), heading_rate(error, agent.motion)
+    if not blocked and filtered(near, float(v[0]), float(v[1]), turn, agent.motion)[2] == 0.0:
+        return 0.0, 0.0, turn  # the last millimetres of the servo cut the turn with them: turn alone
+    return float(v[0]), float(v[1]), turn
 
 
 def reverse(agent: ExploreAgent, ranges: FloatArray, near: FloatArray, odom: Pose, delta: Pose) -> Command:
@@ -267,6 +283,7 @@ def parked(agent: ExploreAgent, ranges: FloatArray, near: FloatArray, odom: Pose
         gap = float((np.array([agent.pose.x, agent.pose.y]) - point) @ normal) - agent.motion.half_depth
         if gap > 0.25 or agent.state_steps > agent._steps(6.0):
             agent._go(State.SEARCH)
+            agent.blind_from = 0  # the memory of the rooms, for the search (docking cut it)
         return 0.1, 0.0, 0.0
     return 0.0, 0.0, 0.0
 
