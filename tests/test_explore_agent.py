@@ -350,7 +350,7 @@ def test_dock_puts_the_pose_at_the_distance_the_scan_sees_the_parking_wall() -> 
     truth = Pose(0.62, 0.2, math.pi + 0.05)
     ranges = lrf_ranges(truth, end, angles)
     drifted = Pose(0.9, 0.05, math.pi - 0.08)  # 0.28 m too far off the wall, 7.4 deg off
-    seen = dock(ranges, angles, drifted, wall, max_shift_m=0.6)
+    seen = dock(ranges, angles, drifted, wall, max_shift_m=0.6, heading=True)
     assert seen is not None
     docked, normal = seen
     assert abs(docked.x - truth.x) < 0.01 and docked.y == drifted.y  # along the wall: not measured
@@ -365,6 +365,6 @@ def test_dock_puts_the_pose_at_the_distance_the_scan_sees_the_parking_wall() -> 
     assert abs(tilt - (drifted.theta - truth.theta)) < math.radians(0.5)
     wall_distance = float((np.array([docked.x, docked.y]) - wall[0]) @ normal)
     assert abs(wall_distance - truth.x) < 0.01
-    assert dock(ranges, angles, Pose(1.5, 0.05, math.pi), wall, max_shift_m=0.6) is None  # 0.88 m off
+    assert dock(ranges, angles, Pose(1.5, 0.05, math.pi), wall, max_shift_m=0.6, heading=False) is None  # 0.88 m off
     side = lrf_ranges(Pose(2.0, 0.2, math.pi / 2), end, angles)  # facing a side wall
-    assert dock(side, angles, Pose(2.0, 0.2, math.pi / 2), wall, max_shift_m=0.6) is None
+    assert dock(side, angles, Pose(2.0, 0.2, math.pi / 2), wall, max_shift_m=0.6, heading=False) is None

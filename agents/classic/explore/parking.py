@@ -62,7 +62,7 @@ def fit_wall(ranges: FloatArray, angles: FloatArray, pose: Pose, start: Pose) ->
 
 
 def dock(
-    ranges: FloatArray, angles: FloatArray, pose: Pose, wall: Wall, max_shift_m: float, heading: bool = True
+    ranges: FloatArray, angles: FloatArray, pose: Pose, wall: Wall, max_shift_m: float, *, heading: bool
 ) -> tuple[Pose, FloatArray] | None:
     """Facing the parking wall, the pose put at the distance from it the scan sees, whatever the
     odometry drifted over minutes of exploring, and the wall's normal as seen. `heading`: the

@@ -128,7 +128,7 @@ def park(agent: ExploreAgent, ranges: FloatArray, near: FloatArray, odom: Pose, 
     here = np.array([agent.pose.x, agent.pose.y])
     distance = float(np.linalg.norm(standoff - here))
     if distance < cfg.park_dock_m and not agent.at_standoff:
-        seen = dock(ranges, agent.angles, agent.pose, (point, normal), 0.6, cfg.park_dock_heading)
+        seen = dock(ranges, agent.angles, agent.pose, (point, normal), 0.6, heading=cfg.park_dock_heading)
         if seen is not None:
             docked, agent.wall_seen = seen
             moved = math.hypot(docked.x - agent.pose.x, docked.y - agent.pose.y)
