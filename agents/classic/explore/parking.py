@@ -21,12 +21,16 @@ from pico_gym.world.geometry import wrap_angle
 Wall = tuple[FloatArray, FloatArray]
 
 
+def _ahead(ranges: FloatArray, angles: FloatArray) -> FloatArray:
+    """The scan's robot-frame points within 2 m and 26 deg of straight ahead."""
+    pts = scan_points(ranges, angles, 2.0, len(ranges))
+    return pts[np.abs(np.arctan2(pts[:, 1], pts[:, 0])) < 0.45]
+
+
 def _wall_ahead(ranges: FloatArray, angles: FloatArray) -> FloatArray | None:
     """The robot-frame points of the wall straight ahead (within 2 m and 26 deg of the heading,
     near the depth straight ahead); None when too few are seen."""
-    pts = scan_points(ranges, angles, 2.0, len(ranges))
-    keep = np.abs(np.arctan2(pts[:, 1], pts[:, 0])) < 0.45
-    pts = pts[keep]
+    pts = _ahead(ranges, angles)
     if len(pts) < 20:
         return None
     # The wall faces the robot within about 15 deg: keep the points near the depth straight
@@ -71,8 +75,7 @@ def dock(
     20 deg, the reverse went in at that angle). The position along the wall is left alone. None
     when no straight wall is seen ahead, or the one seen is not the parking wall as the pose has
     it (more than 20 deg or `max_shift_m` off: a jamb, a side wall)."""
-    pts = scan_points(ranges, angles, 2.0, len(ranges))
-    pts = pts[np.abs(np.arctan2(pts[:, 1], pts[:, 0])) < 0.45]
+    pts = _ahead(ranges, angles)
     seed = pts[np.abs(pts[:, 1]) < 0.1]  # the patch straight ahead, then what lies on its line
     if len(seed) < 10:
         return None
