@@ -12,6 +12,7 @@ import pytest
 import pico_gym  # noqa: F401
 from pico_gym.agents import make_agent
 from pico_gym.agents.classic.explore import ExploreAgent, State
+from pico_gym.agents.classic.explore.config import ExploreAgentConfig
 from pico_gym.agents.classic.explore.pose import wall_directions
 from pico_gym.agents.classic.explore.regions import (
     component_sizes,
@@ -99,10 +100,13 @@ def test_it_parks_backwards_by_touch_without_a_bump() -> None:
     assert agent.state in (State.REVERSE, State.PARKED)
 
 
-def run_episode(seed: int, options: dict | None = None, steps: int = 6000) -> dict:
-    """The classic explore agent through one episode (at most `steps`): its last info."""
-    env = explore_env()
-    agent = make_agent("classic", env)
+def run_episode(
+    seed: int, options: dict | None = None, steps: int = 6000, family: str | None = None, **config: Any
+) -> dict:
+    """The classic explore agent (settings changed by `config`) through one episode (at most
+    `steps`) of the generator's `family`: its last info."""
+    env = explore_env(**({"family": family} if family else {}))
+    agent = make_agent("classic", env, config=ExploreAgentConfig(**config))
     obs, info = env.reset(seed=seed, options=options)
     agent.reset(obs, {"task": info["task"]})
     for _ in range(steps):
@@ -127,6 +131,17 @@ def test_the_search_enters_a_deep_room_seen_only_through_its_door() -> None:
     info = run_episode(112)
     assert info["termination_reason"] == "done" and info["bumps"] == 0
     assert info["time_to_find"] < 300.0
+
+
+@pytest.mark.slow
+def test_the_search_tries_again_a_room_it_once_gave_up_on() -> None:
+    """Comb dev seed 550047: parked at 169 s, the search made no progress through the door of
+    the object's room for 10 s (the potential field's minimum in the doorway) and gave the place
+    up; it then went round the other rooms until 600 s, the given-up place never tried again.
+    With `search_retry`, once it has looked everywhere it tries the places it gave up on."""
+    assert run_episode(550047, family="comb", search_retry=False)["termination_reason"] == "timeout"
+    info = run_episode(550047, family="comb")
+    assert info["termination_reason"] == "done" and info["bumps"] == 0
 
 
 @pytest.mark.slow
@@ -334,6 +349,35 @@ def test_search_align_turns_the_heading_onto_the_stored_map_and_leaves_the_posit
         pose.align(ranges, angles, occupancy, 10.0, stored, heading_only=True)
     assert (pose.pose.x, pose.pose.y) == (0.4, 0.1)
     assert abs(pose.pose.theta) < math.radians(0.5)
+
+
+def test_search_align_takes_no_match_where_the_stored_map_explains_little_of_the_scan() -> None:
+    """`search_align_explained`: with most of the scan on what the stored map does not hold
+    (here clutter 0.6 m off in every beam but those 11-46 deg off the heading, which reach the
+    hallway's walls), the points on its walls still move the heading (here the right way), but
+    a match on under 35 % of what the scan could score is not taken, right or wrong."""
+    from pico_gym.agents.classic.explore.config import ExploreAgentConfig
+    from pico_gym.agents.classic.explore.occupancy import OccupancyMap
+    from pico_gym.agents.classic.explore.pose import OdometryPose
+
+    cfg = ExploreAgentConfig()
+    occupancy = OccupancyMap(cfg, Pose(0.0, 0.0, 0.0))
+    angles = np.linspace(-2.0, 2.0, 1000)
+    for x in np.arange(-3.0, 3.01, 0.5):
+        occupancy.integrate(
+            Pose(float(x), 0.0, 0.0), angles, _hallway_ranges(Pose(float(x), 0.0, 0.0), angles), 10.0, 1
+        )
+    stored = occupancy.logodds.copy()
+    truth = Pose(0.4, 0.1, 0.0)
+    ranges = np.where((np.abs(angles) > 0.2) & (np.abs(angles) < 0.8), _hallway_ranges(truth, angles), 0.6)
+    moved = {}
+    for explained in (0.0, 0.35):
+        pose = OdometryPose(cfg, truth)
+        pose.pose = Pose(0.4, 0.1, math.radians(2.0))
+        for _ in range(5):
+            pose.align(ranges, angles, occupancy, 10.0, stored, heading_only=True, explained=explained)
+        moved[explained] = pose.pose.theta != math.radians(2.0)
+    assert moved == {0.0: True, 0.35: False}
 
 
 def test_dock_puts_the_pose_at_the_distance_the_scan_sees_the_parking_wall() -> None:

@@ -147,7 +147,15 @@ class ExploreAgent(Agent):
         if self.steps >= 3 and cfg.scan_matching:
             pose.align(ranges, self.angles, self.occupancy, lrf.range_max_m)
         elif cfg.search_align and self.finder.stored is not None:  # against the map stored at parking
-            pose.align(ranges, self.angles, self.occupancy, lrf.range_max_m, self.finder.stored, heading_only=True)
+            pose.align(
+                ranges,
+                self.angles,
+                self.occupancy,
+                lrf.range_max_m,
+                self.finder.stored,
+                heading_only=True,
+                explained=cfg.search_align_explained,
+            )
         if cfg.square_gain > 0.0:
             pose.square(ranges, self.angles, looking=self.state is State.LOOK)
         pose.settle(odom)

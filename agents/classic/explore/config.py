@@ -44,6 +44,18 @@ class ExploreAgentConfig:
             the map stored at parking (a finished map that no longer moves with the pose; the
             position is left alone: along a hallway it slides). On: measured on the families'
             dev splits, found-of-parked 92-97 % -> 97-100 %.
+        search_align_explained: `search_align` takes a match only where the stored map explains
+            at least this fraction of the scan (its score against the most the scan's points could
+            score): in a room the stored map holds poorly, a gain of a few points is noise and the
+            heading walked off by 10-30 deg (0: any match). 0.35: measured on the families' dev splits
+            (docs/agents/classic-explore.md).
+        search_retry: once the search has looked everywhere and starts again, the places it gave
+            up on (no progress towards them for `give_up_s`) are tried again; without, a room
+            whose door the robot once failed to pass stayed out of the search for good. On: measured
+            with `search_align_explained` and `dither_s` (docs/agents/classic-explore.md).
+        dither_s: exploring or searching, a robot that has stayed within 0.5 m of one spot this
+            long gives its goal up [s] (0: never; `give_up_s` alone restarts with each new goal,
+            and two goals taking turns held a robot in place for 8 minutes).
         safety_floor_m: the safety filter lets nothing closer to the footprint than this plus
             twice the LRF's noise, and tries a command without its turn before scaling it down
             (0: the plain filter).
@@ -121,6 +133,9 @@ class ExploreAgentConfig:
     stop_range_m: float = 0.3
     scan_matching: bool = False
     search_align: bool = True
+    search_align_explained: float = 0.35
+    search_retry: bool = True
+    dither_s: float = 20.0
     square_gain: float = 0.0
     square_min: float = 0.6
     square_window_deg: float = 5.0

@@ -34,6 +34,7 @@ class FrontierPlanner:
         frontiers: the frontiers of the last plan (for drawing).
         small_goal: the goal is a small frontier (looked at from 1 m, it is done).
         clearance: each planning cell's distance to the nearest occupied one, at the last plan [m].
+        anchor, anchor_step: a spot the robot has stayed within 0.5 m of since that step.
     """
 
     def __init__(self, config: ExploreAgentConfig, occupancy: OccupancyMap, dt_s: float) -> None:
@@ -49,6 +50,8 @@ class FrontierPlanner:
         self.small_goal = False
         self.clearance = np.zeros((0, 0))
         self._occupied_clearance = np.zeros((0, 0))
+        self.anchor: FloatArray | None = None
+        self.anchor_step = 0
 
     def clear(self, step: int) -> None:
         """Forget the path and the progress (a new state plans afresh)."""
@@ -56,6 +59,14 @@ class FrontierPlanner:
         self.plan_step = -(10**9)
         self.best = math.inf
         self.best_step = step
+        self.anchor = None
+
+    def stayed(self, here: FloatArray, step: int) -> int:
+        """How many steps the robot has stayed within 0.5 m of one spot (call every step: the
+        spot moves to where it is once it is farther)."""
+        if self.anchor is None or float(np.linalg.norm(here - self.anchor)) > 0.5:
+            self.anchor, self.anchor_step = here.copy(), step
+        return step - self.anchor_step
 
     def replan_due(self, step: int) -> bool:
         """No path, or one older than `replan_s`."""

@@ -17,6 +17,8 @@ from pico_gym.jit import njit
 from pico_gym.types import FloatArray, Pose
 from pico_gym.world.geometry import compose, inverse, wrap_angle
 
+CELL_CAP = 3.0  # the most one end point scores in matching (its cell's log-odds, clipped)
+
 
 @njit
 def _best_pose(
@@ -138,12 +140,14 @@ class OdometryPose:
         range_max: float,
         logodds: np.ndarray | None = None,
         heading_only: bool = False,
+        explained: float = 0.0,
     ) -> None:
         """Correlative scan-to-map matching around the prediction (within 3 cm and 0.9 deg:
         odometry drifts far less than that in a step, so a larger jump would be a bad match, e.g.
         a room seen for the first time), against the map (or `logodds` of its grid, e.g. the
         map stored at parking); with `heading_only`, the heading alone (in a hallway the walls
-        fix the heading but not the position along it, and a free position slides)."""
+        fix the heading but not the position along it, and a free position slides); a match
+        scoring under `explained` of the most the points could score is not taken."""
         cfg = self.config
         points = scan_points(ranges, angles, min(cfg.map_range_m, range_max), 180)
         if len(points) < 40:
@@ -163,9 +167,9 @@ class OdometryPose:
             0.01,
             0.016,
             0.002,
-            3.0,
+            CELL_CAP,
         )
-        if score > 1.02 * centre + 1.0:
+        if score > 1.02 * centre + 1.0 and score >= explained * CELL_CAP * len(points):
             self.pose = Pose(float(x), float(y), float(th))
             self.fits += 1
 
@@ -181,12 +185,12 @@ class OdometryPose:
         g = occupancy.grid
         p = self.pose
         x, y, th, _, centre = _best_pose(
-            points, logodds, g.x0, g.y0, g.resolution, p.x, p.y, p.theta, 1.2, 0.1, 0.2, 0.02, 3.0
+            points, logodds, g.x0, g.y0, g.resolution, p.x, p.y, p.theta, 1.2, 0.1, 0.2, 0.02, CELL_CAP
         )
         x, y, th, score, _ = _best_pose(
-            points, logodds, g.x0, g.y0, g.resolution, x, y, th, 0.1, 0.02, 0.02, 0.005, 3.0
+            points, logodds, g.x0, g.y0, g.resolution, x, y, th, 0.1, 0.02, 0.02, 0.005, CELL_CAP
         )
-        if score < 1.3 * centre + 10.0 or score < 0.4 * 3.0 * len(points):
+        if score < 1.3 * centre + 10.0 or score < 0.4 * CELL_CAP * len(points):
             return False
         self.pose = Pose(float(x), float(y), float(th))
         self.fits += 1

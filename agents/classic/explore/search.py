@@ -50,6 +50,7 @@ class ObjectFinder:
         evidence: per planning cell, decaying counts of free-standing points the stored map
             does not explain.
         object: where the object is believed to be (agent frame), or None.
+        rejected: the objects believed in and not counted found (false objects).
         depths: per planning cell of the whole grid, the rooms entered on the way from the start
             (`regions.room_depths`, made at parking).
     """
@@ -61,6 +62,7 @@ class ObjectFinder:
         n = occupancy.logodds.shape[0]
         self.evidence = np.zeros((n // 2, n // 2))
         self.object: FloatArray | None = None
+        self.rejected: list[FloatArray] = []
         self.depths: np.ndarray | None = None
 
     def look(self, ranges: FloatArray, angles: FloatArray, pose: Pose, range_max: float, given_up: list) -> None:

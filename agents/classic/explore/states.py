@@ -79,12 +79,27 @@ def look(agent: ExploreAgent, ranges: FloatArray, near: FloatArray, odom: Pose, 
     return 0.0, 0.0, 1.0
 
 
+def _dithered(agent: ExploreAgent) -> bool:
+    """Whether the robot has stayed in one spot for `dither_s` while exploring or searching;
+    then its goal is given up. Two goals that take turns (each nearer once the robot heads for
+    the other) each restart the progress `give_up_s` counts, and a robot between them stays."""
+    cfg, planner = agent.config, agent.planner
+    stayed = planner.stayed(np.array([agent.pose.x, agent.pose.y]), agent.steps)
+    if cfg.dither_s <= 0.0 or planner.goal is None or stayed < agent._steps(cfg.dither_s):
+        return False
+    planner.given_up.append(planner.goal.copy())
+    planner.goal, planner.path, planner.anchor = None, [], None
+    return True
+
+
 def explore(agent: ExploreAgent, ranges: FloatArray, near: FloatArray, odom: Pose, delta: Pose) -> Command:
     """To the best frontier; frontiers given up get one more try, then small ones (a door seen
     only at a grazing angle leaves a frontier of a cell or two); none left: PARK."""
     planner, step = agent.planner, agent.steps
     if step * agent.spec.dt_s > agent.config.explore_budget_s:
         agent._go(State.PARK)
+        return 0.0, 0.0, 0.0
+    if _dithered(agent):
         return 0.0, 0.0, 0.0
     if planner.replan_due(step):
         unknown = agent.occupancy.unknown
@@ -295,6 +310,8 @@ def search(agent: ExploreAgent, ranges: FloatArray, near: FloatArray, odom: Pose
     if finder.object is not None:
         agent._go(State.APPROACH)
         return 0.0, 0.0, 0.0
+    if _dithered(agent):
+        return 0.0, 0.0, 0.0
     if planner.replan_due(step):
         finder.isolated(step, agent.phase == "find", planner.given_up)
         if finder.object is not None:
@@ -315,6 +332,8 @@ def search(agent: ExploreAgent, ranges: FloatArray, near: FloatArray, odom: Pose
             agent.pose, step, unseen
         ):
             occupancy.checked[:] = False  # looked everywhere: look again
+            if agent.config.search_retry:  # the places given up too (the false objects stay so)
+                planner.given_up = [q.copy() for q in finder.rejected]
             return 0.0, 0.0, 0.8
     return _follow(agent, near)
 
@@ -371,6 +390,7 @@ def found(agent: ExploreAgent, ranges: FloatArray, near: FloatArray, odom: Pose,
         finder = agent.finder
         assert finder.object is not None  # (FOUND comes only with an object)
         agent.planner.given_up.append(finder.object.copy())
+        finder.rejected.append(finder.object.copy())
         finder.evidence[:] = 0.0
         finder.object = None
         agent._go(State.SEARCH)
