@@ -412,3 +412,18 @@ def test_dock_puts_the_pose_at_the_distance_the_scan_sees_the_parking_wall() -> 
     assert dock(ranges, angles, Pose(1.5, 0.05, math.pi), wall, max_shift_m=0.6, heading=False) is None  # 0.88 m off
     side = lrf_ranges(Pose(2.0, 0.2, math.pi / 2), end, angles)  # facing a side wall
     assert dock(side, angles, Pose(2.0, 0.2, math.pi / 2), wall, max_shift_m=0.6, heading=False) is None
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"search_align_explained": 1.5}, "search_align_explained"),
+        ({"search_align_explained": float("nan")}, "search_align_explained"),
+        ({"dither_s": -1.0}, "dither_s"),
+        ({"dither_s": True}, "dither_s"),
+        ({"search_retry": 1}, "search_retry"),
+    ],
+)
+def test_the_config_refuses_bad_search_settings(kwargs: dict, match: str) -> None:
+    with pytest.raises(ValueError, match=match):
+        ExploreAgentConfig(**kwargs)

@@ -151,3 +151,12 @@ class ExploreAgentConfig:
     park_settle_s: float = 0.0
     park_dock_m: float = 1.5
     park_dock_heading: bool = False
+
+    def __post_init__(self) -> None:
+        # (The search's settings; the older fields are not checked yet.)
+        if not isinstance(self.search_retry, bool):
+            raise ValueError(f"ExploreAgentConfig.search_retry must be true or false, got {self.search_retry!r}")
+        for name, top in (("search_align_explained", 1.0), ("dither_s", 600.0)):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0.0 <= value <= top:
+                raise ValueError(f"ExploreAgentConfig.{name} must be a number in [0, {top:g}], got {value!r}")
