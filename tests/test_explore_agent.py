@@ -145,6 +145,17 @@ def test_the_search_tries_again_a_room_it_once_gave_up_on() -> None:
 
 
 @pytest.mark.slow
+def test_a_creep_held_by_a_jamb_hands_back_to_the_planner() -> None:
+    """Deep-L dev seed 560008: the planner brought the robot to 0.88 m of the object with a door
+    jamb between, and the final creep, straight at the object, was held by the safety filter
+    until 600 s. With `creep_held_s`, a creep held for 3 s plans round the jamb to 0.45 m and
+    creeps again from there (off by default: measured on the dev splits only)."""
+    assert run_episode(560008, family="deep-L")["termination_reason"] == "timeout"
+    info = run_episode(560008, family="deep-L", creep_held_s=3.0)
+    assert info["termination_reason"] == "done" and info["bumps"] == 0
+
+
+@pytest.mark.slow
 def test_the_stored_map_is_the_one_from_before_the_touch_so_an_object_in_view_is_unexplained() -> None:
     """Dev seed 466: the object stands 2 m from the parking spot, in view of it. The env places it
     0.5 s after the touch; the map was stored 1.5 s after the agent was sure of the touch, with
@@ -422,6 +433,7 @@ def test_dock_puts_the_pose_at_the_distance_the_scan_sees_the_parking_wall() -> 
         ({"dither_s": -1.0}, "dither_s"),
         ({"dither_s": True}, "dither_s"),
         ({"search_retry": 1}, "search_retry"),
+        ({"creep_held_s": -3.0}, "creep_held_s"),
     ],
 )
 def test_the_config_refuses_bad_search_settings(kwargs: dict, match: str) -> None:

@@ -96,6 +96,7 @@ class ExploreAgent(Agent):
         # before stand where the drifted pose put them.
         self.blind_from = 0
         self.wall_seen: FloatArray | None = None  # the parking wall's normal as seen, docking
+        self.round_from = 0.0  # approaching: the distance at which the final creep was held (0: none)
 
     @property
     def pose(self) -> Pose:
@@ -119,6 +120,7 @@ class ExploreAgent(Agent):
         self.state = state
         self.state_steps = 0
         self.planner.clear(self.steps)
+        self.round_from = 0.0
 
     # --- the step -------------------------------------------------------------------------------
     def act(self, obs: dict[str, np.ndarray]) -> np.ndarray:

@@ -56,6 +56,9 @@ class ExploreAgentConfig:
         dither_s: exploring or searching, a robot that has stayed within 0.5 m of one spot this
             long gives its goal up [s] (0: never; `give_up_s` alone restarts with each new goal,
             and two goals taking turns held a robot in place for 8 minutes).
+        creep_held_s: approaching the object, a final creep the safety filter has held still this
+            long (a door jamb between) hands back to the planner, to within 0.45 m instead of
+            0.6 m, and creeps again once 0.15 m nearer [s] (0: the creep waits).
         safety_floor_m: the safety filter lets nothing closer to the footprint than this plus
             twice the LRF's noise, and tries a command without its turn before scaling it down
             (0: the plain filter).
@@ -136,6 +139,7 @@ class ExploreAgentConfig:
     search_align_explained: float = 0.35
     search_retry: bool = True
     dither_s: float = 20.0
+    creep_held_s: float = 0.0
     square_gain: float = 0.0
     square_min: float = 0.6
     square_window_deg: float = 5.0
@@ -156,7 +160,7 @@ class ExploreAgentConfig:
         # (The search's settings; the older fields are not checked yet.)
         if not isinstance(self.search_retry, bool):
             raise ValueError(f"ExploreAgentConfig.search_retry must be true or false, got {self.search_retry!r}")
-        for name, top in (("search_align_explained", 1.0), ("dither_s", 600.0)):
+        for name, top in (("search_align_explained", 1.0), ("dither_s", 600.0), ("creep_held_s", 60.0)):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0.0 <= value <= top:
                 raise ValueError(f"ExploreAgentConfig.{name} must be a number in [0, {top:g}], got {value!r}")

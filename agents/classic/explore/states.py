@@ -366,21 +366,30 @@ def approach(agent: ExploreAgent, ranges: FloatArray, near: FloatArray, odom: Po
     here = np.array([pose.x, pose.y])
     distance = float(np.linalg.norm(obj - here))
     error = wrap_angle(math.atan2(obj[1] - here[1], obj[0] - here[0]) - pose.theta)
-    if distance < 0.9:
+    if agent.round_from and distance < agent.round_from - 0.15:
+        agent.round_from = 0.0  # round the jamb, nearer: creep again from here
+    if distance < 0.9 and not agent.round_from:
         rel = np.abs(np.array([wrap_angle(a - error) for a in agent.angles[::5]])) < 0.3
         ahead = ranges[::5][rel]
         closest = float(ahead.min()) if len(ahead) else math.inf
         if closest <= agent.config.stop_range_m and abs(error) < agent.motion.visible_bearing:
             agent._go(State.FOUND)
             return 0.0, 0.0, 0.0
-        # Towards it as it turns (holonomic; a turn a jamb refuses must not stop the creep).
-        forward = 0.1 if abs(error) < agent.motion.visible_bearing else 0.0
-        return forward * math.cos(error), forward * math.sin(error), heading_rate(error, agent.motion)
+        held_s = agent.config.creep_held_s
+        if not (held_s > 0.0 and agent.still_steps > agent._steps(held_s)):
+            # Towards it as it turns (holonomic; a turn a jamb refuses must not stop the creep).
+            forward = 0.1 if abs(error) < agent.motion.visible_bearing else 0.0
+            return forward * math.cos(error), forward * math.sin(error), heading_rate(error, agent.motion)
+        agent.round_from = distance  # the filter holds the creep (a jamb between): plan round it
+        agent.planner.clear(agent.steps)
     if agent.planner.replan_due(agent.steps):
-        if not agent.planner.plan_to(pose, agent.steps, obj, stop_m=0.6):
-            agent.finder.object = None
-            agent._go(State.SEARCH)
-            return 0.0, 0.0, 0.0
+        nearer = bool(agent.round_from) and agent.planner.plan_to(pose, agent.steps, obj, stop_m=0.45)
+        if not nearer:
+            agent.round_from = 0.0
+            if not agent.planner.plan_to(pose, agent.steps, obj, stop_m=0.6):
+                agent.finder.object = None
+                agent._go(State.SEARCH)
+                return 0.0, 0.0, 0.0
     return _follow(agent, near)
 
 
