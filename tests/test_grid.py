@@ -7,7 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from pico_gym.world.grid import Grid, clearance_grid, geodesic_field
+from pico_gym.agents.classic.explore.regions import distance_transform
+from pico_gym.world.grid import CostGrid, Grid, clearance_grid, descend, geodesic_field
 
 
 def test_clearance_grid_is_exact_at_cell_centres() -> None:
@@ -228,3 +229,40 @@ def test_a_field_from_a_start_is_the_full_field_where_a_robot_can_be_before_the_
                 assert part.lookup(x, y) == full.lookup(x, y)
                 checked += 1
         assert checked > 30
+
+
+def test_the_path_walks_down_the_field_to_the_robot_from_every_cell_it_reached() -> None:
+    """A field of `CostGrid.field_from` (Dijkstra with knight moves) can leave a cell whose 8
+    neighbours are none lower (the explore agent's planner, nested dev seed 570072: its walk
+    stopped 4 m from the robot, the path began there, and the robot drove at it through a wall
+    until 600 s). `descend` takes the knight move there: from every such cell of random rooms'
+    fields, and from others, it goes strictly down to the robot's cell."""
+    rng = np.random.default_rng(0)
+    stuck_8 = 0
+    for _ in range(20):
+        occupied = np.zeros((60, 60), dtype=bool)
+        occupied[[0, -1], :] = occupied[:, [0, -1]] = True
+        for _ in range(8):
+            r, c, n = *rng.integers(5, 55, 2), int(rng.integers(3, 20))
+            if rng.random() < 0.5:
+                occupied[r, c : c + n] = True
+            else:
+                occupied[r : r + n, c] = True
+        costs = CostGrid.from_clearance(
+            Grid(0.0, 0.0, 0.1, occupied.shape), distance_transform(occupied, 0.1, 1.0), 0.4, 4.0, 0.13
+        )
+        free = np.argwhere(np.isfinite(costs.cost))
+        robot = free[rng.integers(len(free))]
+        d = costs.field_from(robot[:1], robot[1:], np.zeros(1)).distance
+        padded = np.pad(d, 1, constant_values=np.inf)
+        lowest_8 = np.min(
+            [padded[1 + dr : 61 + dr, 1 + dc : 61 + dc] for dr in (-1, 0, 1) for dc in (-1, 0, 1) if dr or dc], axis=0
+        )
+        stuck = np.isfinite(d) & (d > 0.0) & (lowest_8 >= d)  # where the 8 neighbours have no way down
+        stuck_8 += int(stuck.sum())
+        reached = np.argwhere(np.isfinite(d))
+        for r, c in [*np.argwhere(stuck), *reached[rng.choice(len(reached), 50)]]:
+            cells = descend(d, costs.knight_ok, int(r), int(c))
+            assert tuple(cells[-1]) == tuple(robot), (r, c)
+            assert np.all(np.diff(d[cells[:, 0], cells[:, 1]]) < 0.0)
+    assert stuck_8 > 0  # (the case is there: the 8 neighbours alone leave some cells stuck)

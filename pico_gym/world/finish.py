@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from pico_gym.types import FloatArray, Segments
-from pico_gym.world.grid import CostGrid, Grid, clearance_grid, flood
+from pico_gym.world.grid import CostGrid, Grid, clearance_grid, descend, flood
 
 RESOLUTION_M = 0.05
 PASS_M = 0.12  # the robot's centre passes where this far from everything (its half depth, 0.1 m, + 2 cm)
@@ -60,7 +60,7 @@ def auto_finish(segments: Segments, start: tuple[float, float], where: str) -> t
     costs = CostGrid.from_clearance(grid, clearance, inflation_m=PASS_M)
     rows, cols = np.nonzero(out)
     field = costs.field_from(rows, cols, np.zeros(len(rows)), allowed=reachable)
-    path = _descend(field.distance, r0, c0)
+    path = descend(field.distance, costs.knight_ok, r0, c0)
     xs, ys = grid.centres()
     points = np.column_stack([xs[path[:, 0], path[:, 1]], ys[path[:, 0], path[:, 1]]])
     along = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(points, axis=0).T))])
@@ -118,24 +118,6 @@ def _corridor(points: FloatArray, along: FloatArray, segments: Segments, where: 
     while mouth > 0 and narrow[mouth - 1]:
         mouth -= 1
     return mouth, end
-
-
-def _descend(distance: FloatArray, r: int, c: int) -> np.ndarray:
-    """The cells from (r, c) down the field to its seeds (steepest descent over the 8 neighbours)."""
-    rows, cols = distance.shape
-    path = [(r, c)]
-    for _ in range(rows * cols):
-        best, step = distance[r, c], None
-        for dr in (-1, 0, 1):
-            for dc in (-1, 0, 1):
-                rr, cc = r + dr, c + dc
-                if (dr or dc) and 0 <= rr < rows and 0 <= cc < cols and distance[rr, cc] < best:
-                    best, step = distance[rr, cc], (rr, cc)
-        if step is None:
-            break
-        r, c = step
-        path.append(step)
-    return np.array(path)
 
 
 def _across(points: FloatArray, along: FloatArray, s: float, segments: Segments) -> FloatArray | None:

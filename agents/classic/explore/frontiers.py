@@ -19,7 +19,7 @@ from pico_gym.agents.classic.explore.config import ExploreAgentConfig
 from pico_gym.agents.classic.explore.occupancy import OccupancyMap
 from pico_gym.agents.classic.explore.regions import components, distance_transform, opening
 from pico_gym.types import FloatArray, Pose
-from pico_gym.world.grid import CostGrid
+from pico_gym.world.grid import CostGrid, descend
 
 
 class FrontierPlanner:
@@ -164,23 +164,7 @@ class FrontierPlanner:
 
     def _path_from_field(self, field: Any, costs: CostGrid, cell: tuple[int, int], spot: FloatArray, step: int) -> bool:
         """Walk down the field from the goal cell to the robot; string-pull; keep as the path."""
-        d = field.distance
-        r, c = cell
-        cells = [(r, c)]
-        for _ in range(d.size):
-            if d[r, c] <= 0.0:
-                break
-            best = (d[r, c], r, c)
-            for dr in (-1, 0, 1):
-                for dc in (-1, 0, 1):
-                    rr, cc = r + dr, c + dc
-                    if 0 <= rr < d.shape[0] and 0 <= cc < d.shape[1] and d[rr, cc] < best[0]:
-                        best = (d[rr, cc], rr, cc)
-            if best[1:] == (r, c):
-                break
-            r, c = best[1], best[2]
-            cells.append((r, c))
-        cells.reverse()
+        cells = [(int(r), int(c)) for r, c in descend(field.distance, costs.knight_ok, *cell)[::-1]]
         # Straight lines only where they keep the comfort clearance: a pulled string would hug door
         # jambs at the inflation radius; through a narrow door the field's own cells are kept.
         p = self.occupancy.view_grid
