@@ -148,10 +148,10 @@ def test_the_search_tries_again_a_room_it_once_gave_up_on() -> None:
 def test_a_creep_held_by_a_jamb_hands_back_to_the_planner() -> None:
     """Deep-L dev seed 560008: the planner brought the robot to 0.88 m of the object with a door
     jamb between, and the final creep, straight at the object, was held by the safety filter
-    until 600 s. With `creep_held_s`, a creep held for 3 s plans round the jamb to 0.45 m and
-    creeps again from there (off by default: measured on the dev splits only)."""
-    assert run_episode(560008, family="deep-L")["termination_reason"] == "timeout"
-    info = run_episode(560008, family="deep-L", creep_held_s=3.0)
+    until 600 s. With `creep_held_s` (3 s by default), a creep held for 3 s plans round the jamb
+    to 0.45 m and creeps again from there."""
+    assert run_episode(560008, family="deep-L", creep_held_s=0.0)["termination_reason"] == "timeout"
+    info = run_episode(560008, family="deep-L")
     assert info["termination_reason"] == "done" and info["bumps"] == 0
 
 

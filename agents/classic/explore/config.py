@@ -139,7 +139,7 @@ class ExploreAgentConfig:
     search_align_explained: float = 0.35
     search_retry: bool = True
     dither_s: float = 20.0
-    creep_held_s: float = 0.0
+    creep_held_s: float = 3.0
     square_gain: float = 0.0
     square_min: float = 0.6
     square_window_deg: float = 5.0
