@@ -149,10 +149,39 @@ def test_a_creep_held_by_a_jamb_hands_back_to_the_planner() -> None:
     """Deep-L dev seed 560008: the planner brought the robot to 0.88 m of the object with a door
     jamb between, and the final creep, straight at the object, was held by the safety filter
     until 600 s. With `creep_held_s` (3 s by default), a creep held for 3 s plans round the jamb
-    to 0.45 m and creeps again from there."""
-    assert run_episode(560008, family="deep-L", creep_held_s=0.0)["termination_reason"] == "timeout"
-    info = run_episode(560008, family="deep-L")
+    to 0.45 m and creeps again from there. (The held creep is in a doorway: turning free there,
+    `wedge_turn_s`, mends it too, so that is off to see the creep's own part.)"""
+    off = {"creep_held_s": 0.0, "wedge_turn_s": 0.0}
+    assert run_episode(560008, family="deep-L", **off)["termination_reason"] == "timeout"
+    info = run_episode(560008, family="deep-L", wedge_turn_s=0.0)
     assert info["termination_reason"] == "done" and info["bumps"] == 0
+
+
+@pytest.mark.slow
+def test_a_robot_wedged_askew_in_a_door_turns_free() -> None:
+    """Deep-L dev seed 560028: on its way back to park, the robot went sideways into a door of a
+    thick wall 35 deg askew and stood wedged between the jambs, a corner against each, from 330 s
+    to 600 s (the follower turned one step a second, the filters held every translation). With
+    `wedge_turn_s` (1 s by default), held 1 s in a doorway it turns in place for 1 s the way that
+    frees the corners, and drives on."""
+    assert run_episode(560028, family="deep-L", wedge_turn_s=0.0)["termination_reason"] == "timeout"
+    info = run_episode(560028, family="deep-L")
+    assert info["termination_reason"] == "done" and info["bumps"] == 0
+
+
+@pytest.mark.parametrize("side", [1.0, -1.0])
+def test_wedged_askew_between_two_jambs_the_turn_that_frees_both_corners_is_chosen(side: float) -> None:
+    """Nested dev seed 570006, as the filters saw it: the front face 4 cm off one jamb, the rear
+    corner of the other side 1.3 cm off the other jamb (PICO 0.2 m deep, 0.4 m wide, askew in
+    a door). Turning one way moves both off the footprint; the other way swings the corners in."""
+    env = explore_env()
+    agent = make_agent("classic", env)
+    agent.reset(*env.reset(seed=0))
+    near = np.array([[0.14, 0.13 * side], [0.14, 0.12 * side], [-0.11, -0.21 * side]])
+    w = agent.follower._freeing_turn(near)
+    assert w == pytest.approx(0.3 * side)
+    # Pressed against one wall along its side, no turn moves it off: none is chosen.
+    assert agent.follower._freeing_turn(np.array([[x, 0.22] for x in np.linspace(-0.3, 0.3, 13)])) == 0.0
 
 
 @pytest.mark.slow
@@ -434,6 +463,8 @@ def test_dock_puts_the_pose_at_the_distance_the_scan_sees_the_parking_wall() -> 
         ({"dither_s": True}, "dither_s"),
         ({"search_retry": 1}, "search_retry"),
         ({"creep_held_s": -3.0}, "creep_held_s"),
+        ({"wedge_turn_s": 20.0}, "wedge_turn_s"),
+        ({"wedge_turn_s": True}, "wedge_turn_s"),
     ],
 )
 def test_the_config_refuses_bad_search_settings(kwargs: dict, match: str) -> None:

@@ -59,6 +59,13 @@ class ExploreAgentConfig:
         creep_held_s: approaching the object, a final creep the safety filter has held still this
             long (a door jamb between) hands back to the planner, to within 0.45 m instead of
             0.6 m, and creeps again once 0.15 m nearer [s] (0: the creep waits).
+        wedge_turn_s: in a doorway, held still 1 s by the filters, turn in place this long, as
+            the turn filter lets it: towards the heading the follower wants, or, where that is
+            reached or refused (wedged askew between the jambs, a corner against each), the way
+            that moves the nearest points off the footprint; then drive on [s] (0: off, one
+            step's turn towards the heading per second held). On: measured on the families' dev
+            splits, timeouts with the building explored 8 -> 2 in 340 episodes
+            (docs/agents/classic-explore.md).
         safety_floor_m: the safety filter lets nothing closer to the footprint than this plus
             twice the LRF's noise, and tries a command without its turn before scaling it down
             (0: the plain filter).
@@ -140,6 +147,7 @@ class ExploreAgentConfig:
     search_retry: bool = True
     dither_s: float = 20.0
     creep_held_s: float = 3.0
+    wedge_turn_s: float = 1.0
     square_gain: float = 0.0
     square_min: float = 0.6
     square_window_deg: float = 5.0
@@ -160,7 +168,12 @@ class ExploreAgentConfig:
         # (The search's settings; the older fields are not checked yet.)
         if not isinstance(self.search_retry, bool):
             raise ValueError(f"ExploreAgentConfig.search_retry must be true or false, got {self.search_retry!r}")
-        for name, top in (("search_align_explained", 1.0), ("dither_s", 600.0), ("creep_held_s", 60.0)):
+        for name, top in (
+            ("search_align_explained", 1.0),
+            ("dither_s", 600.0),
+            ("creep_held_s", 60.0),
+            ("wedge_turn_s", 10.0),
+        ):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0.0 <= value <= top:
                 raise ValueError(f"ExploreAgentConfig.{name} must be a number in [0, {top:g}], got {value!r}")

@@ -79,6 +79,8 @@ class Follower:
         self.backoff_until = 0
         self.step_out_until = 0
         self.step_out: Command = (0.0, 0.0, 0.0)
+        self.wedge_turn_until = 0
+        self.wedge_turn = 0.0
 
     def _steps(self, seconds: float) -> int:
         return max(1, round(seconds / self.dt_s))
@@ -139,17 +141,55 @@ class Follower:
                 return stepped
         r, c_ = planner.occupancy.plan_cell(here)
         if planner.clearance[r, c_] < cfg.narrow_m:
-            # In the doorway itself: no turning (the jamb's far corners have not been seen), the
-            # holonomic base translates through at the heading it came in with; unless that is
-            # wedged across the door (the filters have stopped it for a second), then it turns
-            # towards the way as the turn filter lets it.
-            if still_steps < self._steps(1.0):
-                return float(v[0]), float(v[1]), 0.0
-            w = min(max(heading_rate(error, self.motion), -0.3), 0.3)  # slowly: the map is built as it turns
-            return float(v[0]), float(v[1]), safe_turn(near, w, self.motion)
+            return self._through_door(near, v, error, step, still_steps)
         if abs(error) > 1.0:
             v = v * 0.2  # turn first
         return float(v[0]), float(v[1]), safe_turn(near, heading_rate(error, self.motion), self.motion)
+
+    def _through_door(self, near: FloatArray, v: FloatArray, error: float, step: int, still_steps: int) -> Command:
+        """In the doorway itself: no turning (the jamb's far corners have not been seen), the
+        holonomic base translates through at the heading it came in with; unless that is wedged
+        across the door (the filters have stopped it for a second), then it turns
+        (`wedge_turn_s`; `error`: the heading's from the one the follower wants)."""
+        cfg = self.config
+        if step < self.wedge_turn_until:
+            w = filtered(near, 0.0, 0.0, self.wedge_turn, self.motion)[2]
+            if w != 0.0:
+                return 0.0, 0.0, w
+            self.wedge_turn_until = 0
+        if still_steps < self._steps(1.0):
+            return float(v[0]), float(v[1]), 0.0
+        w = min(max(heading_rate(error, self.motion), -0.3), 0.3)  # slowly: the map is built as it turns
+        if cfg.wedge_turn_s > 0.0:
+            # Held: turn in place, towards the way or else the way that frees the corners pressed
+            # against the jambs, as the filters let it, for `wedge_turn_s` (a turn of one step a
+            # second, the still count starting again with it, turned nothing).
+            w = filtered(near, 0.0, 0.0, w, self.motion)[2]
+            w = w if abs(w) >= 0.05 else self._freeing_turn(near)
+            if w != 0.0:
+                self.wedge_turn, self.wedge_turn_until = w, step + self._steps(cfg.wedge_turn_s)
+                return 0.0, 0.0, w
+        return float(v[0]), float(v[1]), safe_turn(near, w, self.motion)
+
+    def _freeing_turn(self, near: FloatArray, rate: float = 0.3) -> float:
+        """The turn in place (+-`rate`, as the filters let it) that moves the points nearest the
+        footprint farthest off it, or 0 where neither does: wedged askew between two jambs, a
+        corner against each, one sense of turn frees both."""
+        close = near[np.hypot(near[:, 0], near[:, 1]) < 0.5]
+        if len(close) == 0:
+            return 0.0
+        d_now = float(footprint_clearance(close, self.motion).min())
+        best, best_gain = 0.0, 0.005
+        for w in (rate, -rate):
+            w = filtered(near, 0.0, 0.0, w, self.motion)[2]
+            if w == 0.0:
+                continue
+            a = -w * 0.5
+            c, s = math.cos(a), math.sin(a)
+            gain = float(footprint_clearance(close @ np.array([[c, -s], [s, c]]).T, self.motion).min()) - d_now
+            if gain > best_gain:
+                best, best_gain = w, gain
+        return best
 
     def _step_out(self, near: FloatArray, step: int) -> Command | None:
         """Stuck with the way on behind (a new plan turned it round in or by a door): the blind
