@@ -174,7 +174,8 @@ def test_a_creep_held_by_a_jamb_hands_back_to_the_planner() -> None:
 def test_a_robot_wedged_askew_in_a_door_turns_free() -> None:
     """Deep-L dev seed 560028: on its way back to park, the robot went sideways into a door of a
     thick wall 35 deg askew and stood wedged between the jambs, a corner against each, from 330 s
-    to 600 s (the follower turned one step a second, the filters held every translation). With
+    to 600 s (the follower turned one step a second; the filters let through at most a creep of
+    2 cm/s against the jambs). With
     `wedge_turn_s` (1 s by default), held 1 s in a doorway it turns in place for 1 s the way that
     frees the corners, and drives on."""
     assert run_episode(560028, family="deep-L", wedge_turn_s=0.0)["termination_reason"] == "timeout"

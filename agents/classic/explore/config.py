@@ -60,7 +60,7 @@ class ExploreAgentConfig:
             long (a door jamb between) hands back to the planner, to within 0.45 m instead of
             0.6 m, and creeps again once 0.15 m nearer [s] (0: the creep waits).
         wedge_turn_s: in a doorway, held still 1 s by the filters, turn in place this long, as
-            the turn filter lets it: towards the heading the follower wants, or, where that is
+            the filters let it: towards the heading the follower wants, or, where that is
             reached or refused (wedged askew between the jambs, a corner against each), the way
             that moves the nearest points off the footprint; then drive on [s] (0: off, one
             step's turn towards the heading per second held). On: measured on the families' dev
