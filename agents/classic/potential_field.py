@@ -136,7 +136,7 @@ def heading_rate(error: float, cfg: MotionConfig) -> float:
     return float(np.clip(cfg.turn_gain * error, -cfg.max_turn, cfg.max_turn))
 
 
-def _distances_after(points: FloatArray, vx: float, vy: float, w: float, t: float, cfg: MotionConfig) -> FloatArray:
+def distances_after(points: FloatArray, vx: float, vy: float, w: float, t: float, cfg: MotionConfig) -> FloatArray:
     """Footprint distance of each point after moving with (vx, vy, w) for t seconds."""
     # In the robot frame the points move by the inverse motion.
     a = -w * t
@@ -172,7 +172,7 @@ def safety_filter(
 
     def safe(cvx: float, cvy: float, cw: float) -> bool:
         return all(
-            bool(np.all(_distances_after(near, cvx, cvy, cw, cfg.horizon * f, cfg) >= floor)) for f in (0.34, 0.67, 1.0)
+            bool(np.all(distances_after(near, cvx, cvy, cw, cfg.horizon * f, cfg) >= floor)) for f in (0.34, 0.67, 1.0)
         )
 
     if safe(vx, vy, w):
@@ -201,7 +201,7 @@ def _slide(
     Sliding keeps moving past it. None when too little of the command would be left.
     """
     vx, vy, w = command
-    deficit = floor - _distances_after(points, vx, vy, w, cfg.horizon, cfg)
+    deficit = floor - distances_after(points, vx, vy, w, cfg.horizon, cfg)
     worst = int(np.argmax(deficit))
     n = footprint_distance(points[worst : worst + 1], cfg)[1][0]  # from the footprint to the point
     v = np.array([vx, vy])

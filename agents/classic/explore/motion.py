@@ -15,6 +15,7 @@ from pico_gym.agents.classic.explore.frontiers import FrontierPlanner
 from pico_gym.agents.classic.potential_field import (
     MotionConfig,
     attract_and_repel,
+    distances_after,
     footprint_clearance,
     footprint_distance,
     heading_rate,
@@ -184,9 +185,7 @@ class Follower:
             w = filtered(near, 0.0, 0.0, w, self.motion)[2]
             if w == 0.0:
                 continue
-            a = -w * 0.5
-            c, s = math.cos(a), math.sin(a)
-            gain = float(footprint_clearance(close @ np.array([[c, -s], [s, c]]).T, self.motion).min()) - d_now
+            gain = float(distances_after(close, 0.0, 0.0, w, 0.5, self.motion).min()) - d_now
             if gain > best_gain:
                 best, best_gain = w, gain
         return best
